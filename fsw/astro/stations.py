@@ -1,0 +1,107 @@
+"""Deep Space Network stations: positions, velocities and elevation angles.
+
+ITRF coordinates of the 70 m antennas from the DSN Telecommunications Link Design Handbook
+810-005, module 301 (ITRF93, epoch 2003.0); tectonic drift (a few cm/yr) is ignored.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fsw.astro.earth import itrs_to_gcrs_matrix, itrs_to_gcrs_state, itrs_to_geodetic
+from fsw.astro.ephemeris import EphemerisSource, default_ephemeris
+
+
+class StationError(ValueError):
+    """Unknown station name or bad target vector."""
+
+
+@dataclass(frozen=True)
+class Station:
+    """A ground station fixed in the ITRS."""
+
+    name: str  # canonical, e.g. "DSS-14"
+    complex: str  # "goldstone" | "canberra" | "madrid"
+    itrs_km: tuple[float, float, float]
+
+    @property
+    def geodetic(self) -> tuple[float, float, float]:
+        """(latitude deg, east longitude deg, height km) on WGS84."""
+        lat, lon, h = itrs_to_geodetic(self.itrs_km)
+        return math.degrees(lat), math.degrees(lon), h
+
+    @property
+    def up_itrs(self) -> np.ndarray:
+        """Unit normal to the WGS84 ellipsoid at the station (local vertical)."""
+        lat, lon, _ = itrs_to_geodetic(self.itrs_km)
+        return np.array([math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)])
+
+
+STATIONS: dict[str, Station] = {
+    "DSS-14": Station("DSS-14", "goldstone", (-2353.621420, -4641.341472, 3677.052318)),
+    "DSS-43": Station("DSS-43", "canberra", (-4460.894917, 2682.361507, -3674.748152)),
+    "DSS-63": Station("DSS-63", "madrid", (4849.092518, -360.180346, 4115.109251)),
+}
+
+_ALIASES = {
+    "dss14": "DSS-14", "goldstone": "DSS-14", "gds": "DSS-14", "gdscc": "DSS-14",
+    "dss43": "DSS-43", "canberra": "DSS-43", "cdscc": "DSS-43",
+    "dss63": "DSS-63", "madrid": "DSS-63", "mdscc": "DSS-63",
+}
+
+
+def station(name: str) -> Station:
+    """Look a station up by name or alias ("DSS-14", "dss14", "goldstone", ...)."""
+    if not isinstance(name, str):
+        raise StationError(f"station name must be a string, got {type(name).__name__}")
+    key = name.strip().lower().replace("-", "").replace("_", "").replace(" ", "")
+    try:
+        return STATIONS[_ALIASES[key]]
+    except KeyError:
+        raise StationError(
+            f"unknown station {name!r}; known: {', '.join(STATIONS)} (aliases: {', '.join(sorted(_ALIASES))})"
+        ) from None
+
+
+def station_state_icrf(name: str, t_tdb, dut1_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Geocentric ICRF (GCRS) position [km] and velocity [km/s]; scalar t -> (3,), (N,) -> (N, 3)."""
+    return itrs_to_gcrs_state(np.array(station(name).itrs_km), t_tdb, dut1_s)
+
+
+def station_state_mars(
+    name: str, t_tdb, ephemeris: EphemerisSource | None = None, dut1_s: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mars-centred ICRF position [km] and velocity [km/s] of a station (adds Earth's state).
+
+    ``ephemeris`` is anything with ``state(body, t, center)`` (an :class:`Ephemeris` or a
+    Mars-centred :class:`EphemerisTable` containing ``earth``); default: DE421 directly.
+    """
+    eph = ephemeris if ephemeris is not None else default_ephemeris()
+    pe, ve = eph.state("earth", t_tdb, "mars")
+    ps, vs = station_state_icrf(name, t_tdb, dut1_s)
+    return pe + ps, ve + vs
+
+
+def elevation(name: str, t_tdb, target_pos_geocentric_km, dut1_s: float = 0.0) -> np.ndarray | float:
+    """Elevation [rad] of a target above a station's geodetic horizon.
+
+    ``target_pos_geocentric_km``: geocentric ICRF target position(s), (3,) or (N, 3) matching t.
+    Geometric direction: light time and aberration are the caller's choice of target position.
+    """
+    st = station(name)
+    target = np.asarray(target_pos_geocentric_km, dtype=float)
+    if target.shape[-1:] != (3,) or not np.all(np.isfinite(target)):
+        raise StationError(f"target must be finite (..., 3) positions, got shape {target.shape}")
+    M = itrs_to_gcrs_matrix(t_tdb, dut1_s)
+    pos = M @ np.array(st.itrs_km)
+    up = M @ st.up_itrs
+    los = target - pos
+    rng = np.linalg.norm(los, axis=-1)
+    if np.any(rng == 0.0):
+        raise StationError("target coincides with the station")
+    sin_el = np.einsum("...i,...i->...", los, up) / rng
+    el = np.arcsin(np.clip(sin_el, -1.0, 1.0))
+    return float(el) if np.ndim(el) == 0 else el

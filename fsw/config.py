@@ -1,0 +1,141 @@
+"""Configuration of the flight software: bank, gating networks, detector, budget, telemetry.
+
+This is the ``fsw:`` section of a scenario file. Each piece is declared next to the code it
+configures; this module composes them and adds what only the FSW as a whole needs (the a-priori
+state uplinked before the run, telemetry cadences, input screening).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+from fsw.executive.config import BudgetConfig
+from fsw.fdir.config import DetectorConfig
+from fsw.fdir.families import FilterFamily
+from fsw.filters.config import BankConfig
+from fsw.filters.presets import nominal_bank
+from fsw.gating.registry import NETWORKS, params_type
+from fsw.interface import typed
+from fsw.interface.typed import DecodeError, spec
+
+
+@dataclass(frozen=True)
+class GatingEntry:
+    """One gating network and its parameters, written in YAML as ``{network: NAME, <params>…}``.
+
+    The parameter type depends on the network name, so this class decodes itself: the error for a
+    bad parameter still points at ``fsw.gating[i].<param>``.
+    """
+
+    network: str
+    params: Any
+
+    @classmethod
+    def of(cls, network: str, **params: Any) -> "GatingEntry":
+        return cls._typed_decode({"network": network, **params}, "")
+
+    @classmethod
+    def _typed_decode(cls, data: Any, path: str) -> "GatingEntry":
+        if not isinstance(data, dict):
+            raise DecodeError(path, "a mapping {network: NAME, parameters...}", type(data).__name__)
+        name = data.get("network")
+        if name not in NETWORKS:
+            raise DecodeError(f"{path}.network" if path else "network", "one of " + ", ".join(NETWORKS), repr(name))
+        rest = {k: v for k, v in data.items() if k != "network"}
+        return cls(network=name, params=typed.decode(params_type(name), rest, path))
+
+    def _typed_encode(self, drop_defaults: bool) -> dict:
+        return {"network": self.network, **typed.encode(self.params, drop_defaults=drop_defaults)}
+
+    @classmethod
+    def _typed_schema(cls) -> dict:
+        variants = []
+        for name in NETWORKS:
+            sch = typed.json_schema(params_type(name), top=False)
+            sch["properties"] = {"network": {"const": name}, **sch["properties"]}
+            sch["required"] = ["network", *sch.get("required", [])]
+            variants.append(sch)
+        return {"oneOf": variants}
+
+
+@dataclass(frozen=True)
+class DetectorSection:
+    """Which gating network drives the anomaly detector, and its calibration."""
+
+    network: str = spec("chi2", doc="gating network whose weights the detector watches")
+    calibration: DetectorConfig | None = spec(
+        None, doc="calibrated thresholds and nominal band (from `navbank calibrate`); none: detector off"
+    )
+    high_q_filters: tuple[str, ...] = spec(
+        (), doc="filters that carry inflated dynamic process noise (the -Q filters of seed 001 §4.4)"
+    )
+
+
+@dataclass(frozen=True)
+class TelemetryConfig:
+    """How often the FSW publishes what (simulated time)."""
+
+    estimate_every_s: float = spec(3600.0, doc="cadence of Estimate messages (combined, best, per filter)", unit="s", gt=0)
+    per_filter_estimates: bool = spec(True, doc="also publish each filter's estimate")
+    full_covariance: bool = spec(False, doc="include the full covariance in Estimate messages")
+    anomaly_every_s: float = spec(6 * 3600.0, doc="periodic AnomalyReport cadence (also sent on every change)", unit="s", gt=0)
+    status_every_s: float = spec(86400.0, doc="periodic RunStatus (counters) cadence", unit="s", gt=0)
+
+
+@dataclass(frozen=True)
+class InitialState:
+    """A-priori spacecraft state uplinked to the FSW before the run (never the truth)."""
+
+    t_s: float = spec(doc="epoch, TDB seconds past J2000", unit="s")
+    position_km: tuple[float, ...] = spec(doc="Mars-centred ICRF position", unit="km", shape=(3,))
+    velocity_km_s: tuple[float, ...] = spec(doc="Mars-centred ICRF velocity", unit="km/s", shape=(3,))
+
+
+@dataclass(frozen=True)
+class FswConfig:
+    """The flight software as configured for a run."""
+
+    bank: BankConfig = spec(default_factory=nominal_bank, doc="the filter bank")
+    gating: tuple[GatingEntry, ...] = spec(
+        default_factory=lambda: (GatingEntry.of("chi2"), GatingEntry.of("magill")),
+        doc="gating networks, each {network: NAME, parameters}",
+    )
+    detector: DetectorSection = spec(default_factory=DetectorSection, doc="anomaly detector")
+    budget: BudgetConfig = spec(default_factory=BudgetConfig, doc="frame executive budget")
+    telemetry: TelemetryConfig = spec(default_factory=TelemetryConfig, doc="telemetry cadences")
+    reorder_window: int = spec(32, doc="out-of-order measurements within this many sequence numbers are re-ordered", ge=0)
+    initial_state: InitialState | None = spec(
+        None, doc="a-priori state; none: the launcher derives it from the scenario (design trajectory + a-priori error draw)"
+    )
+
+    def __post_init__(self) -> None:
+        names = [g.network for g in self.gating]
+        if len(set(names)) != len(names):
+            raise ValueError(f"each gating network may appear once, got {names}")
+        filters = [f.name for f in self.bank.filters]
+        if self.gating and self.detector.network not in names:
+            raise ValueError(f"detector.network {self.detector.network!r} is not among the gating networks {names}")
+        unknown = [n for n in self.detector.high_q_filters if n not in filters]
+        if unknown:
+            raise ValueError(f"detector.high_q_filters names unknown filters {unknown}")
+        cal = self.detector.calibration
+        if cal is not None and tuple(cal.filters) != tuple(filters):
+            raise ValueError(f"detector calibration is for filters {list(cal.filters)}, the bank has {filters}")
+
+    def families(self) -> tuple[FilterFamily, ...]:
+        """Family tags of each filter, derived from the kinds it processes (never from names)."""
+        out = []
+        for f in self.bank.filters:
+            fams = []
+            if {"range", "doppler"} & set(f.processes):
+                fams.append("radio")
+            if "optical" in f.processes:
+                fams.append("optical")
+            out.append(FilterFamily(name=f.name, families=tuple(fams) or ("other",),
+                                    high_q=f.name in self.detector.high_q_filters))
+        return tuple(out)
+
+    def with_initial_state(self, state: InitialState) -> "FswConfig":
+        return dataclasses.replace(self, initial_state=state)

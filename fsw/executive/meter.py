@@ -1,0 +1,80 @@
+"""How a stage is charged against the frame budget, and whether it may start.
+
+Both meters answer the same two questions: what will this stage probably cost (``predict``), and
+what does it cost now that it has run (``charge``). A stage starts only if its predicted cost fits
+the remaining budget — except the first stage of a frame, which always starts so that a stage
+larger than a whole frame cannot stall the executive (it then counts as an overrun).
+"""
+
+from __future__ import annotations
+
+import math
+
+from fsw.executive.config import BudgetConfig
+from fsw.executive.work import Stage
+
+
+class WorkUnitMeter:
+    """Declared costs: a stage costs what it says (or its class default), whatever the host does."""
+
+    def __init__(self, config: BudgetConfig):
+        self._config = config
+
+    def predict(self, stage: Stage) -> float:
+        return stage.cost if stage.cost is not None else self._config.default_cost(stage.kind)
+
+    def admits(self, predicted: float, remaining: float) -> bool:
+        return predicted <= remaining
+
+    def charge(self, stage: Stage, measured_s: float) -> float:
+        return self.predict(stage)
+
+
+class CpuMeter:
+    """Measured costs: thread CPU seconds times ``cpu_scale``.
+
+    The prediction for a stage is a running mean of its past charged costs plus ``cost_margin``
+    running mean absolute deviations, per stage label (seen-before work is admitted only if it
+    will very probably fit; never-seen work is admitted while any budget is left).
+    """
+
+    def __init__(self, config: BudgetConfig):
+        self._scale = config.cpu_scale
+        self._gain = config.cost_gain
+        self._margin = config.cost_margin
+        self._mean: dict[str, float] = {}
+        self._dev: dict[str, float] = {}
+
+    def predict(self, stage: Stage) -> float:
+        key = stage.label
+        if key not in self._mean:
+            return 0.0
+        return self._mean[key] + self._margin * self._dev[key]
+
+    def admits(self, predicted: float, remaining: float) -> bool:
+        return remaining > 0.0 and predicted <= remaining
+
+    def charge(self, stage: Stage, measured_s: float) -> float:
+        cost = measured_s * self._scale
+        key = stage.label
+        if key not in self._mean:
+            # Half the first sample as initial deviation: cautious until the cost is known.
+            self._mean[key] = cost
+            self._dev[key] = 0.5 * cost
+        else:
+            err = cost - self._mean[key]
+            self._mean[key] += self._gain * err
+            self._dev[key] += self._gain * (abs(err) - self._dev[key])
+        return cost
+
+    def estimates(self) -> dict[str, tuple[float, float]]:
+        """(mean, mean absolute deviation) of the charged cost per stage label."""
+        return {key: (self._mean[key], self._dev[key]) for key in self._mean}
+
+
+def measured_interval(start: float, end: float) -> float:
+    """CPU seconds between two clock readings; a clock that misbehaves charges nothing."""
+    dt = end - start
+    if not math.isfinite(dt) or dt < 0.0:
+        return 0.0
+    return dt

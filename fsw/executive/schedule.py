@@ -1,0 +1,107 @@
+"""Which stage runs next: the ordering rules of the frame executive, with no notion of budget.
+
+Two constraints hold under every policy:
+
+1. the stages of a job run in the order the job lists them (gating for a measurement runs only
+   after every filter stage of that measurement);
+2. the stages of one lane run in job order, i.e. FIFO by measurement time (a filter sees its
+   measurements in time order).
+
+A stage meeting both is *ready*. The oldest outstanding job's next stage is always ready (every
+earlier entry of its lane belongs to an older, hence finished, job), so the queue never
+deadlocks.
+
+Policies
+--------
+``priority``
+    Run the ready stage of highest priority class, the oldest job breaking ties. With every
+    measurement's work fitting in the frame this is "all ingest, then all primary-filter updates,
+    then the other filters, gating, telemetry". Under overload the primary filter stays current
+    while the other filters, gating and telemetry fall behind and catch up in idle frames — what
+    a flight executive does to keep the navigation solution fresh. Each lane remains time
+    ordered, so no filter ever processes a measurement older than one it has already processed.
+``fifo``
+    Complete the oldest job before starting the next: all filters stay synchronised at the price
+    of a primary solution that lags as much as the rest.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+from fsw.executive.work import PRIORITY_RANK, Job
+
+
+class JobState:
+    """Progress of one submitted job."""
+
+    __slots__ = ("job", "order", "next")
+
+    def __init__(self, job: Job, order: int):
+        self.job = job
+        self.order = order
+        self.next = 0
+
+    @property
+    def done(self) -> bool:
+        return self.next >= len(self.job.stages)
+
+
+class StageQueue:
+    """Outstanding stages of the due jobs, and the policy that picks the next one."""
+
+    def __init__(self, policy: str):
+        if policy not in ("priority", "fifo"):
+            raise ValueError(f"unknown scheduling policy {policy!r}")
+        self._policy = policy
+        self._lanes: dict[str, deque[tuple[JobState, int]]] = {}
+        self._jobs: deque[JobState] = deque()
+        self.pending_stages = 0
+        self.pending_jobs = 0
+
+    def add(self, state: JobState) -> None:
+        """Queue a due job; jobs must arrive in order (their lanes stay FIFO)."""
+        self._jobs.append(state)
+        for index, stage in enumerate(state.job.stages):
+            self._lanes.setdefault(stage.lane_key, deque()).append((state, index))
+        self.pending_stages += len(state.job.stages)
+        self.pending_jobs += 1
+
+    def oldest(self) -> JobState | None:
+        """The oldest job with a stage outstanding."""
+        jobs = self._jobs
+        while jobs and jobs[0].done:
+            jobs.popleft()
+        return jobs[0] if jobs else None
+
+    def peek(self) -> tuple[JobState, int] | None:
+        """The stage the policy runs next, as (job, stage index), or None when nothing is due."""
+        if self._policy == "fifo":
+            state = self.oldest()
+            return None if state is None else (state, state.next)
+        best: tuple[JobState, int] | None = None
+        best_key: tuple[int, int] | None = None
+        for lane in self._lanes.values():
+            state, index = lane[0]
+            if state.next != index:
+                continue
+            key = (PRIORITY_RANK[state.job.stages[index].kind], state.order)
+            if best_key is None or key < best_key:
+                best, best_key = (state, index), key
+        return best
+
+    def complete(self, state: JobState, index: int) -> bool:
+        """Mark the stage returned by :meth:`peek` as run; True when that finished its job."""
+        lane_key = state.job.stages[index].lane_key
+        lane = self._lanes[lane_key]
+        head = lane.popleft()
+        if head[0] is not state or head[1] != index or state.next != index:
+            raise RuntimeError("stage completed out of order")
+        if not lane:
+            del self._lanes[lane_key]
+        state.next += 1
+        self.pending_stages -= 1
+        if state.done:
+            self.pending_jobs -= 1
+            return True
+        return False

@@ -1,0 +1,7 @@
+"""Anomaly detection and characterization on gating-network weights (seed 001 §5 future work).
+
+Modules: ``detector`` (AnomalyDetector, AnomalyState), ``calibrate`` (calibrate, the command
+``python -m fsw.fdir.calibrate``), ``config`` (DetectorConfig and its YAML form), ``statistic``
+(the nominal band and the detection statistic D), ``persistence`` (k-of-n rule),
+``characterize`` (decision tree), ``families`` (filter family tags), ``errors``.
+"""

@@ -1,0 +1,264 @@
+"""The onboard filter bank: N EKFs fed the same measurements, one ``BankRecord`` per measurement.
+
+For every measurement j the bank propagates all filters to the time tag, predicts the
+measurement with every filter — including filters that do not process that kind, because the
+gating networks need z̄_ij = y_j − h_ij(x̄_ij) and S_ij = R_ij + H̃_ij P̄_ij H̃_ijᵀ for all of them
+(seed 001 eq. 5, §3.2) — and updates the filters that process it. Outputs: the record, each
+filter's estimate, the weighted-sum estimate x̂_opt = Σ p_i x̂_i (seed 003 eq. 3) and the
+best-filter estimate (seed 001 §2).
+
+A measurement the bank cannot use (NaN, unknown kind or source, wrong size, time running
+backwards, ...) raises :class:`MeasurementRejected` before any filter state is touched and is
+counted in ``bank.rejected`` by reason.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from fsw.astro.ephemeris import EphemerisError
+from fsw.astro.stations import StationError
+from fsw.filters.combine import best_index, normalised_weights, weighted_estimate
+from fsw.filters.config import FILTER_KINDS, BankConfig
+from fsw.filters.ekf import EKFStack
+from fsw.filters.errors import MeasurementRejected, UnknownFilter
+from fsw.filters.record import BankRecord
+from fsw.filters.validate import screen
+from fsw.interface.messages import MEASUREMENT_DIMENSION
+from fsw.models.environment import OPTICAL_TARGETS, Environment
+from fsw.models.optical import GeometryError
+
+
+@dataclass(frozen=True)
+class FilterEstimate:
+    """A filter's (or the combined) estimate in its own state layout."""
+
+    name: str
+    t: float
+    state_names: tuple[str, ...]
+    x: np.ndarray
+    P: np.ndarray
+
+    @property
+    def position_km(self) -> np.ndarray:
+        return self.x[0:3]
+
+    @property
+    def velocity_km_s(self) -> np.ndarray:
+        return self.x[3:6]
+
+    @property
+    def position_sigma_km(self) -> float:
+        """Root of the trace of the position covariance (RTPC, seed 001 §4.2)."""
+        return float(math.sqrt(max(np.trace(self.P[0:3, 0:3]), 0.0)))
+
+    @property
+    def sigma(self) -> np.ndarray:
+        return np.sqrt(np.clip(np.diag(self.P), 0.0, None))
+
+
+class FilterBank:
+    """A bank of extended Kalman filters (see the module docstring)."""
+
+    KINDS: tuple[str, ...] = FILTER_KINDS
+
+    def __init__(self, config: BankConfig, t0: float, position_km: Any, velocity_km_s: Any,
+                 env: Environment | None = None):
+        self.config = config
+        self.stack = EKFStack(config, t0, position_km, velocity_km_s, env)
+        self.names = self.stack.names
+        self.active = np.ones(len(self.names), dtype=bool)
+        self.rejected: Counter[str] = Counter()
+        self.processed_count = 0
+        self._process_masks = {k: np.array([k in f.processes for f in config.filters]) for k in self.KINDS}
+        self._sigma_scale = {k: np.array([f.sigma_scale.get(k, 1.0) for f in config.filters]) for k in self.KINDS}
+        self._gate = np.array([np.inf if f.gate_chi2 is None else f.gate_chi2 for f in config.filters])
+
+    # -- introspection -------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        return self.stack.t
+
+    @property
+    def size(self) -> int:
+        return len(self.names)
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """Names of the union state (every filter's arrays are subsets of it)."""
+        return self.stack.layout.names
+
+    def index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise UnknownFilter(name) from None
+
+    def filter(self, name: str) -> FilterEstimate:
+        """Estimate of one filter, in its own layout (blocks it does not estimate left out)."""
+        i = self.index(name)
+        keep = self.stack.present[i]
+        names = tuple(n for n, k in zip(self.state_names, keep) if k)
+        return FilterEstimate(name, self.t, names, self.stack.x[i, keep].copy(), self.stack.P[i][np.ix_(keep, keep)].copy())
+
+    def x(self, name: str) -> np.ndarray:
+        return self.filter(name).x
+
+    def P(self, name: str) -> np.ndarray:
+        return self.filter(name).P
+
+    def position_sigma_km(self, name: str) -> float:
+        """RTPC of one filter."""
+        i = self.index(name)
+        return float(math.sqrt(np.trace(self.stack.P[i, 0:3, 0:3])))
+
+    # -- commands ------------------------------------------------------------------------------
+    def set_enabled(self, name: str, enabled: bool) -> None:
+        """Enable/disable a filter. A disabled filter is still propagated (so it can be
+        re-enabled at once) and still predicts, but does not update, and is marked inactive."""
+        self.active[self.index(name)] = bool(enabled)
+
+    def set_param(self, name: str, param: str, value: float) -> None:
+        """Change a filter's noise parameters at run time.
+
+        ``sigma_scale.<kind>`` (R multiplier on the reported sigma), ``velocity_noise_psd``
+        (km²/s³), ``gate_chi2`` (≤ 0: editing off), ``srp.temporal_sigma``,
+        ``acs.temporal_sigma``, ``accel.sigma`` (km/s², from the next batch on),
+        ``clock.q_white_fm``, ``clock.q_random_walk_fm``, ``clock.q_random_run``.
+        """
+        i = self.index(name)
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"{param}: value must be finite")
+        st = self.stack
+        L = st.layout
+        if param.startswith("sigma_scale."):
+            kind = param.split(".", 1)[1]
+            if kind not in self._sigma_scale or value <= 0.0:
+                raise ValueError(f"{param}: unknown kind or non-positive scale")
+            self._sigma_scale[kind][i] = value
+        elif param == "velocity_noise_psd":
+            if value < 0.0:
+                raise ValueError(f"{param} must be >= 0")
+            st.snc_psd[i] = value
+        elif param == "gate_chi2":
+            self._gate[i] = value if value > 0.0 else np.inf
+        elif param in ("srp.temporal_sigma", "acs.temporal_sigma", "accel.sigma"):
+            block = {"srp.temporal_sigma": "srp_stoch", "acs.temporal_sigma": "acs_stoch", "accel.sigma": "accel"}[param]
+            if not L.has(block) or value < 0.0:
+                raise ValueError(f"{param}: block {block} not in this bank, or negative value")
+            cols = range(L.slices[block].start, L.slices[block].stop)
+            if not all(st.present[i, c] for c in cols) or value == 0.0:
+                raise ValueError(f"{param}: filter {name} does not estimate {block} (a state cannot be added or removed at run time)")
+            for b in st.batched:
+                if b.index in cols:
+                    b.sigma[i] = value
+        elif param.startswith("clock."):
+            k = {"clock.q_white_fm": 0, "clock.q_random_walk_fm": 1, "clock.q_random_run": 2}.get(param)
+            if k is None or value < 0.0:
+                raise ValueError(f"unknown parameter {param!r} or negative value")
+            if not L.has("clock") or not st.present[i, L.slices["clock"].start + k]:
+                raise ValueError(f"{param}: filter {name} has no such clock state")
+            st.clock_q[i, k] = value
+        else:
+            raise ValueError(f"unknown parameter {param!r}")
+
+    # -- processing ----------------------------------------------------------------------------
+    def _screen(self, meas: Any) -> tuple[np.ndarray, np.ndarray]:
+        value, sigma = screen(meas, self.KINDS, MEASUREMENT_DIMENSION)
+        t = float(meas.t_s)
+        if t < self.t:
+            raise MeasurementRejected("out_of_order", f"time tag {t} is before the bank epoch {self.t}")
+        try:
+            self.stack.env.states_ssb(t)
+        except EphemerisError as exc:
+            raise MeasurementRejected("out_of_range", str(exc)) from None
+        source = getattr(meas, "source", None)
+        if meas.kind in ("range", "doppler"):
+            try:
+                self.stack.env.check_station(source)
+            except StationError as exc:
+                raise MeasurementRejected("unknown_source", str(exc)) from None
+        if meas.kind == "doppler":
+            T = getattr(meas, "count_time_s", None)
+            if T is None or isinstance(T, bool) or not isinstance(T, (int, float)) or not math.isfinite(T) or T <= 0.0:
+                raise MeasurementRejected("bad_count_time", f"Doppler needs a positive finite count_time_s, got {T!r}")
+        if meas.kind == "optical":
+            if source not in OPTICAL_TARGETS:
+                raise MeasurementRejected("unknown_source", f"unknown optical target {source!r}; known: {OPTICAL_TARGETS}")
+            q = getattr(meas, "attitude_q", None)
+            if q is None:
+                raise MeasurementRejected("missing_field", "an optical measurement needs attitude_q")
+            try:
+                qa = np.asarray(q, dtype=float)
+            except (TypeError, ValueError):
+                raise MeasurementRejected("non_finite", f"attitude_q is not numeric: {q!r}") from None
+            if qa.shape != (4,):
+                raise MeasurementRejected("bad_dimension", f"attitude_q needs 4 components, got shape {qa.shape}")
+            if not np.all(np.isfinite(qa)) or float(qa @ qa) < 1e-12:
+                raise MeasurementRejected("non_finite", f"attitude_q must be a finite non-zero quaternion, got {qa.tolist()}")
+        return value, sigma
+
+    def predict(self, meas: Any, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """h (N, m) and H (N, m, n) of a (screened) measurement at the current bank epoch."""
+        st = self.stack
+        x = st.x if x is None else x
+        t = float(meas.t_s)
+        if meas.kind == "range":
+            return st.predict_range(meas.source, t, x)
+        if meas.kind == "doppler":
+            return st.predict_doppler(meas.source, t, float(meas.count_time_s), x)
+        return st.predict_optical(meas.source, t, meas.attitude_q, x)
+
+    def process(self, meas: Any) -> BankRecord:
+        """Propagate to the measurement, predict it with every filter, update the filters
+        that process its kind, and return the record for the gating networks."""
+        try:
+            value, sigma = self._screen(meas)
+        except MeasurementRejected as exc:
+            self.rejected[exc.reason] += 1
+            raise
+        self.stack.propagate_to(float(meas.t_s))
+        try:
+            h, H = self.predict(meas)
+        except GeometryError as exc:
+            # only propagation (which any later measurement would do) has happened
+            self.rejected["geometry"] += 1
+            raise MeasurementRejected("geometry", str(exc)) from None
+        scale = self._sigma_scale[meas.kind]
+        var = (sigma[None, :] * scale[:, None]) ** 2
+        R = np.zeros((self.size, sigma.size, sigma.size))
+        R[:, np.arange(sigma.size), np.arange(sigma.size)] = var
+        does = self._process_masks[meas.kind] & self.active
+        gate = None if np.all(np.isinf(self._gate)) else self._gate
+        residual, S, chi2, processed = self.stack.update(value, h, H, R, does, gate)
+        self.processed_count += 1
+        return BankRecord(t=float(meas.t_s), seq=int(meas.seq), kind=str(meas.kind), filters=self.names,
+                          residual=residual, S=S, chi2=chi2, processed=processed.copy(), active=self.active.copy())
+
+    def propagate_to(self, t: float) -> None:
+        """Advance every filter to t without a measurement (e.g. for an estimate output)."""
+        self.stack.propagate_to(t)
+
+    # -- outputs -------------------------------------------------------------------------------
+    def estimates(self, weights: Any | None = None) -> dict[str, FilterEstimate]:
+        """Every filter's estimate; with gating ``weights`` also 'combined' (weighted sum over
+        the states all contributing filters estimate, mixture covariance) and 'best'."""
+        out = {name: self.filter(name) for name in self.names}
+        if weights is None:
+            return out
+        w = normalised_weights(np.asarray(weights, dtype=float), self.active)
+        used = w > 0.0
+        common = np.all(self.stack.present[used], axis=0)
+        names = tuple(n for n, k in zip(self.state_names, common) if k)
+        x = self.stack.x[:, common]
+        P = self.stack.P[:, common][:, :, common]
+        x_opt, P_opt = weighted_estimate(x[used], P[used], w[used])
+        out["combined"] = FilterEstimate("combined", self.t, names, x_opt, P_opt)
+        out["best"] = out[self.names[best_index(w, self.active)]]
+        return out

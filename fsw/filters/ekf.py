@@ -1,0 +1,325 @@
+"""The extended Kalman filters of a bank, held as one stack over the bank's union state layout.
+
+Each filter i has state x_i and covariance P_i over the union layout of the bank
+(:mod:`fsw.models.layout`); blocks it does not estimate hold zero state and zero covariance.
+All N filters propagate together over the same time grid (one ephemeris lookup per RK stage
+for the whole stack) and update together through :func:`fsw.filters.kalman.update`.
+
+Propagation between measurements (t → t'):
+
+* the trajectory and its sensitivity Y = ∂[r, v](t')/∂[r, v, q](t) from the variational
+  equations (:mod:`fsw.models.propagator`), assembled into the state transition matrix Φ
+  (clock block Φ_c = [[1, h, h²/2], [0, 1, h], [0, 0, 1]], identity for the other parameters);
+* P ← Φ P Φᵀ + Q with the clock process noise (:mod:`fsw.models.clock`) and optional white
+  acceleration noise on the velocity (SNC: Q_rr = q h³/3, Q_rv = q h²/2, Q_vv = q h);
+* at every batch boundary the batched stochastic parameters step as ECRVs (seed 000 eqs.
+  25–26; seed 001 Table 1), the polynomial acceleration coefficients are re-initialised; at a
+  manoeuvre epoch the planned Δv is added and its execution uncertainty added to P_vv.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fsw.astro.constants import C_KM_S
+from fsw.filters import kalman
+from fsw.filters.config import BankConfig, FilterConfig
+from fsw.models.clock import clock_process_noise, clock_transition
+from fsw.models.environment import Environment
+from fsw.models.forces import ForceParameters, srp_coefficient
+from fsw.models.layout import StateLayout
+from fsw.models.optical import optical
+from fsw.models.propagator import Propagator
+from fsw.models.radiometric import uplink
+from fsw.models.stochastic import apply_ecrv_step, batch_boundaries, ecrv_factors
+
+
+def union_layout(filters: tuple[FilterConfig, ...]) -> StateLayout:
+    srp = any(f.srp.scale.bias_sigma > 0 or f.srp.scale.temporal_sigma > 0 for f in filters)
+    acs = any(f.acs.magnitude.bias_sigma > 0 or f.acs.magnitude.temporal_sigma > 0 for f in filters)
+    degrees = [f.accel.degree for f in filters if f.accel.sigma_km_s2 > 0.0]
+    return StateLayout.build(
+        srp=srp,
+        acs=acs,
+        poly_degree=degrees[0] if degrees else None,
+        clock=max(f.clock.components for f in filters),
+        range_bias=any(f.range_bias_sigma_km > 0 for f in filters),
+    )
+
+
+class _Batched:
+    """One batched stochastic parameter across the stack: state index and per-filter ECRV data."""
+
+    def __init__(self, index: int, sigma: np.ndarray, length: np.ndarray, tau: list[float | None], origin: float):
+        self.index = index
+        self.sigma = sigma  # (N,), 0 where the filter does not estimate it
+        self.length = length  # (N,)
+        self.tau = tau
+        self.origin = origin
+
+    def boundaries(self, t0: float, t1: float) -> set[float]:
+        out: set[float] = set()
+        for i, L in enumerate(self.length):
+            if self.sigma[i] > 0.0:
+                out.update(batch_boundaries(t0, t1, float(L), self.origin).tolist())
+        return out
+
+    def factors(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(m, q) per filter at boundary t: identity step for filters not at a boundary."""
+        m = np.ones(len(self.sigma))
+        q = np.zeros(len(self.sigma))
+        for i, L in enumerate(self.length):
+            k = (t - self.origin) / L
+            if self.sigma[i] > 0.0 and abs(k - round(k)) * L < 1e-6:
+                m[i], q[i] = ecrv_factors(float(L), self.tau[i], float(self.sigma[i]))
+        return m, q
+
+
+class EKFStack:
+    """N extended Kalman filters on a common union layout, propagated and updated together."""
+
+    def __init__(self, config: BankConfig, t0: float, r0, v0, env: Environment | None = None):
+        self.config = config
+        cfgs = config.filters
+        self.names = tuple(f.name for f in cfgs)
+        N = len(cfgs)
+        self.layout = L = union_layout(cfgs)
+        self.env = env if env is not None else Environment()
+        n = L.n
+        self.t = float(t0)
+        r0 = np.asarray(r0, dtype=float)
+        v0 = np.asarray(v0, dtype=float)
+        if r0.shape != (3,) or v0.shape != (3,) or not (np.all(np.isfinite(r0)) and np.all(np.isfinite(v0))):
+            raise ValueError("initial position and velocity must be finite 3-vectors")
+
+        sig = np.zeros((N, n))
+        self.x = np.zeros((N, n))
+        self.x[:, 0:3] = r0
+        self.x[:, 3:6] = v0
+        for i, f in enumerate(cfgs):
+            sig[i, 0:3] = f.position_sigma_km
+            sig[i, 3:6] = f.velocity_sigma_km_s
+            if L.has("srp_bias"):
+                sig[i, L.slices["srp_bias"]] = f.srp.scale.bias_sigma
+                sig[i, L.slices["srp_stoch"]] = f.srp.scale.temporal_sigma
+            if L.has("acs_bias"):
+                sig[i, L.slices["acs_bias"]] = f.acs.magnitude.bias_sigma
+                sig[i, L.slices["acs_stoch"]] = f.acs.magnitude.temporal_sigma
+            if L.has("accel"):
+                sig[i, L.slices["accel"]] = f.accel.sigma_km_s2
+            if L.has("clock"):
+                k = f.clock.components
+                c = L.slices["clock"].start
+                sig[i, c : c + k] = (f.clock.phase_sigma_s, f.clock.frequency_sigma, f.clock.drift_sigma_per_s)[:k]
+                if k == 3:
+                    self.x[i, c + 2] = f.clock.drift_per_s
+            if L.has("range_bias"):
+                sig[i, L.slices["range_bias"]] = f.range_bias_sigma_km
+        self.present = sig > 0.0
+        self.P = np.zeros((N, n, n))
+        self.P[:, np.arange(n), np.arange(n)] = sig**2
+
+        self.forces = ForceParameters(
+            srp_coefficient=np.array([srp_coefficient(f.srp.area_m2, f.srp.mass_kg, f.srp.cr) for f in cfgs]),
+            acs_nominal=np.array([f.acs.nominal_km_s2 for f in cfgs]),
+            acs_direction=np.array([np.asarray(f.acs.direction_body) / np.linalg.norm(f.acs.direction_body) for f in cfgs]),
+            poly_degree=L.poly_degree,
+            poly_batch_s=np.array([f.accel.batch_length_s for f in cfgs]),
+            poly_origin_s=config.batch_origin_tdb_s,
+        )
+        self.propagator = Propagator(self.env, self.forces, config.step_fraction, config.max_step_s)
+        self._q_cols = L.q_columns
+        origin = config.batch_origin_tdb_s
+        self.batched: list[_Batched] = []
+        if L.has("srp_stoch"):
+            self.batched.append(_Batched(L.slices["srp_stoch"].start,
+                                         np.array([f.srp.scale.temporal_sigma for f in cfgs]),
+                                         np.array([f.srp.scale.batch_length_s for f in cfgs]),
+                                         [f.srp.scale.correlation_time_s for f in cfgs], origin))
+        if L.has("acs_stoch"):
+            self.batched.append(_Batched(L.slices["acs_stoch"].start,
+                                         np.array([f.acs.magnitude.temporal_sigma for f in cfgs]),
+                                         np.array([f.acs.magnitude.batch_length_s for f in cfgs]),
+                                         [f.acs.magnitude.correlation_time_s for f in cfgs], origin))
+        if L.has("accel"):
+            s = L.slices["accel"]
+            for idx in range(s.start, s.stop):
+                self.batched.append(_Batched(idx, np.array([f.accel.sigma_km_s2 for f in cfgs]),
+                                             np.array([f.accel.batch_length_s for f in cfgs]), [None] * N, origin))
+        self.clock_q = np.zeros((N, 3))
+        for i, f in enumerate(cfgs):
+            k = f.clock.components
+            self.clock_q[i, :k] = (f.clock.q_white_fm_s, f.clock.q_random_walk_fm_per_s, f.clock.q_random_run_per_s3)[:k]
+        self.snc_psd = np.array([f.velocity_noise_psd_km2_s3 for f in cfgs])
+        self.maneuvers = sorted(config.maneuvers, key=lambda m: m.epoch_tdb_s)
+
+    # -- propagation ----------------------------------------------------------------------------
+    def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
+        """Acceleration drivers q (N, n_q) of the state: SRP scale, ACS magnitude, polynomial."""
+        x = self.x if x is None else x
+        L = self.layout
+        q = np.zeros((x.shape[0], L.n_q))
+        for col, qi in self._q_cols:
+            q[:, qi] += x[:, col]
+        return q
+
+    def transition(self, Y: np.ndarray, h: float) -> np.ndarray:
+        """Full Φ (N, n, n) from the dynamics sensitivity Y (N, 6, 6 + n_q) over a step h."""
+        N, n = self.x.shape
+        Phi = np.zeros((N, n, n))
+        Phi[:, np.arange(n), np.arange(n)] = 1.0
+        Phi[:, 0:6, 0:6] = Y[:, :, :6]
+        for col, qi in self._q_cols:
+            Phi[:, 0:6, col] = Y[:, :, 6 + qi]
+        if self.layout.has("clock"):
+            c = self.layout.slices["clock"]
+            Phi[:, c, c] = clock_transition(h, c.stop - c.start)
+        return Phi
+
+    def _process_noise(self, h: float) -> np.ndarray:
+        N, n = self.x.shape
+        Q = np.zeros((N, n, n))
+        dt = abs(h)
+        if self.layout.has("clock"):
+            c = self.layout.slices["clock"]
+            k = c.stop - c.start
+            Q[:, c, c] = clock_process_noise(dt, self.clock_q)[:, :k, :k]
+        if np.any(self.snc_psd > 0.0):
+            q = self.snc_psd[:, None]
+            eye = np.arange(3)
+            Q[:, eye, eye] += q * dt**3 / 3.0
+            Q[:, eye, eye + 3] += q * dt**2 / 2.0
+            Q[:, eye + 3, eye] += q * dt**2 / 2.0
+            Q[:, eye + 3, eye + 3] += q * dt
+        return Q
+
+    def _propagate_interval(self, t1: float) -> None:
+        h = t1 - self.t
+        if h == 0.0:
+            return
+        r1, v1, Y = self.propagator.propagate(self.t, t1, self.x[:, 0:3], self.x[:, 3:6], self.drivers())
+        Phi = self.transition(Y, h)
+        x = self.x.copy()
+        x[:, 0:3], x[:, 3:6] = r1, v1
+        if self.layout.has("clock"):
+            c = self.layout.slices["clock"]
+            x[:, c] = np.einsum("nij,nj->ni", Phi[:, c, c], self.x[:, c])
+        P = Phi @ self.P @ Phi.transpose(0, 2, 1)
+        P += self._process_noise(h)
+        self.x = x
+        self.P = kalman.symmetrise(P)
+        self.t = t1
+
+    def _events(self, t1: float) -> list[float]:
+        events: set[float] = set()
+        for b in self.batched:
+            events |= b.boundaries(self.t, t1)
+        events |= {m.epoch_tdb_s for m in self.maneuvers if self.t < m.epoch_tdb_s <= t1}
+        return sorted(events)
+
+    def _apply_events(self, t: float) -> None:
+        for b in self.batched:
+            m, q = b.factors(t)
+            if np.any(q > 0.0) or np.any(m != 1.0):
+                apply_ecrv_step(self.x, self.P, b.index, m, q)
+        for man in self.maneuvers:
+            if man.epoch_tdb_s == t:
+                dv = np.asarray(man.dv_km_s)
+                self.x[:, 3:6] += dv
+                var = man.sigma_km_s**2 + (man.sigma_rel * float(np.linalg.norm(dv))) ** 2
+                self.P[:, [3, 4, 5], [3, 4, 5]] += var
+
+    def propagate_to(self, t1: float) -> None:
+        """Advance every filter to t1 (≥ current epoch), stepping batch boundaries and manoeuvres."""
+        t1 = float(t1)
+        if not math.isfinite(t1) or t1 < self.t:
+            raise ValueError(f"cannot propagate from {self.t} back to {t1}")
+        for te in self._events(t1):
+            self._propagate_interval(te)
+            self._apply_events(te)
+        self._propagate_interval(t1)
+
+    # -- measurement models ---------------------------------------------------------------------
+    def _clock(self, x: np.ndarray, k: int) -> np.ndarray:
+        L = self.layout
+        if not L.has("clock") or L.slices["clock"].stop - L.slices["clock"].start <= k:
+            return np.zeros(x.shape[0])
+        return x[:, L.slices["clock"].start + k]
+
+    def predict_range(self, station: str, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """h (N, 1) and H (N, 1, n) of one-way range (see :mod:`fsw.models.radiometric`)."""
+        L = self.layout
+        delta = self._clock(x, 0)
+        g = uplink(self.env, station, t, x[:, 0:3], x[:, 3:6], delta)
+        N = x.shape[0]
+        H = np.zeros((N, 1, L.n))
+        H[:, 0, 0:3] = g.d_rho_d_r
+        H[:, 0, 3:6] = g.d_rho_d_v
+        h = g.rho + C_KM_S * delta
+        if L.has("clock"):
+            H[:, 0, L.slices["clock"].start] = C_KM_S + g.d_rho_d_delta
+        if L.has("range_bias"):
+            h = h + x[:, L.slices["range_bias"].start]
+            H[:, 0, L.slices["range_bias"].start] = 1.0
+        return h[:, None], H
+
+    def predict_doppler(self, station: str, t: float, count_s: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """h (N, 1) and H (N, 1, n) of one-way Doppler over the count interval ending at t."""
+        L = self.layout
+        N = x.shape[0]
+        delta = self._clock(x, 0)
+        freq = self._clock(x, 1)
+        drift = self._clock(x, 2)
+        r_s, v_s, Yb = self.propagator.propagate(t, t - count_s, x[:, 0:3], x[:, 3:6], self.drivers(x))
+        end = uplink(self.env, station, t, x[:, 0:3], x[:, 3:6], delta)
+        start = uplink(self.env, station, t - count_s, r_s, v_s, delta)
+        h = (end.rho - start.rho) / count_s + C_KM_S * (freq - 0.5 * drift * count_s)
+        H = np.zeros((N, 1, L.n))
+        # start geometry through the backward sensitivity Yb = ∂[r, v]_start / ∂[r, v, q]_end
+        g_start = np.concatenate([start.d_rho_d_r, start.d_rho_d_v], axis=1)  # (N, 6)
+        d_start = np.einsum("ni,nij->nj", g_start, Yb)  # (N, 6 + n_q)
+        H[:, 0, 0:3] = (end.d_rho_d_r - d_start[:, 0:3]) / count_s
+        H[:, 0, 3:6] = (end.d_rho_d_v - d_start[:, 3:6]) / count_s
+        for col, qi in self._q_cols:
+            H[:, 0, col] = -d_start[:, 6 + qi] / count_s
+        if L.has("clock"):
+            c = L.slices["clock"].start
+            k = L.slices["clock"].stop - c
+            H[:, 0, c] = (end.d_rho_d_delta - start.d_rho_d_delta) / count_s
+            if k > 1:
+                H[:, 0, c + 1] = C_KM_S
+            if k > 2:
+                H[:, 0, c + 2] = -0.5 * C_KM_S * count_s
+        return h[:, None], H
+
+    def predict_optical(self, target: str, t: float, attitude_q, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """h (N, 2) and H (N, 2, n) of the [sample, line] of a target (see :mod:`fsw.models.optical`)."""
+        cams = [f.camera for f in self.config.filters]
+        h, Hr, Hv = optical(
+            self.env, target, t, x[:, 0:3], x[:, 3:6], np.asarray(attitude_q, dtype=float),
+            focal_px=np.array([c.focal_px for c in cams]),
+            principal_point=np.array([c.principal_point_px for c in cams]),
+            light_time=np.array([c.light_time for c in cams]),
+            aberration=np.array([c.aberration for c in cams]),
+        )
+        H = np.zeros((x.shape[0], 2, self.layout.n))
+        H[:, :, 0:3] = Hr
+        H[:, :, 3:6] = Hv
+        return h, H
+
+    # -- update ---------------------------------------------------------------------------------
+    def update(self, y: np.ndarray, h: np.ndarray, H: np.ndarray, R: np.ndarray, does: np.ndarray,
+               gate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Joseph-form update of every filter where ``does``; returns (residual, S, chi2, processed)."""
+        n = self.layout.n
+        residual = y[None, :] - h
+        Mt = kalman.augmented_joint(self.x, self.P, H, R, residual)
+        PX, res, S, chi2, processed = kalman.update(Mt, n, does, gate)
+        processed = does if processed is None else processed
+        x_new = -PX[:, :, n]
+        P_new = kalman.symmetrise(PX[:, :, :n])
+        self.x = np.where(processed[:, None], x_new, self.x)
+        self.P = np.where(processed[:, None, None], P_new, self.P)
+        return res.copy(), S.copy(), chi2, processed

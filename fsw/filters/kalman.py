@@ -1,0 +1,134 @@
+"""Batched Kalman measurement update shared by the linear and the extended filter banks.
+
+All arrays carry a leading filter axis N so one call updates every filter of a bank:
+x (N, n), P (N, n, n), H (N, m, n), R (N, m, m), residual (N, m).
+
+The covariance update is the Joseph form P⁺ = (I − KH) P̄ (I − KH)ᵀ + K R Kᵀ, evaluated as a
+congruence of the joint prior covariance of state and predicted measurement::
+
+    M = [[P̄,  P̄Hᵀ], [HP̄, S]]  (S = HP̄Hᵀ + R),   P⁺ = [I, −K] M [I, −K]ᵀ,
+
+which expands to exactly the Joseph form. M = [I; H] P̄ [I; H]ᵀ + diag(0, R) is positive
+semi-definite by construction, so P⁺ is too for ANY gain K, and an error δK in the gain only
+adds δK S δKᵀ (second order) — the properties that keep P SPD over tens of thousands of
+updates. Writing it this way also gives P̄Hᵀ and S as blocks of M, and costs two batched
+products instead of four. A filter that does not process a measurement gets K = 0, which
+leaves x̄ and P̄ unchanged through the same arithmetic.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def augmented_joint(x: np.ndarray, P: np.ndarray, H: np.ndarray, R: np.ndarray, residual: np.ndarray) -> np.ndarray:
+    """The augmented joint prior M̃ = [[P̄, P̄Hᵀ, −x̄], [HP̄, S, z̄]], shape (N, n+m, n+m+1).
+
+    The last column rides along through the update so that the same products that give
+    the Joseph covariance also give the updated state (see :func:`update`).
+    """
+    N, n, _ = P.shape
+    m = H.shape[1]
+    B = np.empty((N, n + m, n))
+    B[:, :n, :] = np.eye(n)
+    B[:, n:, :] = H
+    Mt = np.empty((N, n + m, n + m + 1))
+    Mt[:, :, : n + m] = B @ P @ B.transpose(0, 2, 1)
+    Mt[:, n:, n : n + m] += R
+    Mt[:, :n, -1] = -x
+    Mt[:, n:, -1] = residual
+    return Mt
+
+
+_COFACTOR_SIGNS = np.array([[1.0, -1.0], [-1.0, 1.0]])
+
+
+def inverse_spd(S: np.ndarray) -> np.ndarray:
+    """Inverse of a stack of small symmetric positive definite matrices (N, m, m); closed form
+    for 1×1 and 2×2 (range/Doppler and optical), LAPACK beyond."""
+    m = S.shape[-1]
+    if m == 1:
+        return 1.0 / S
+    if m == 2:
+        out = S[:, ::-1, ::-1] * _COFACTOR_SIGNS  # adjugate of [[a, b], [c, d]] is [[d, -b], [-c, a]]
+        out /= np.vecdot(S[:, 0, :], out[:, :, 0])[:, None, None]  # det = first row · adj column
+        return out
+    return np.linalg.inv(S)
+
+
+def chi_square(residual: np.ndarray, S_inv: np.ndarray) -> np.ndarray:
+    """z̄ᵀ S⁻¹ z̄ per filter (seed 001 eq. 6, G_k,i,j)."""
+    return np.vecdot(residual, np.matvec(S_inv, residual))
+
+
+def update(
+    Mt: np.ndarray, n: int, processes: np.ndarray | None = None, gate: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """One batched measurement update of N filters with n states from their augmented joint prior.
+
+    ``Mt`` is [[P̄, P̄Hᵀ, −x̄], [HP̄, S, z̄]] (N, n+m, n+m+1), see :func:`augmented_joint`.
+    ``processes`` (N,) says which filters update with this measurement (None: all);
+    ``gate`` (N,) is the measurement-editing threshold on the chi-square (None: no editing).
+
+    G = S⁻¹ M̃_bottom = [Kᵀ, I, S⁻¹z̄] gives the gain and the chi-square at once. With
+    L = [I, −K]: L M̃ = M̃_top − P̄Hᵀ G = [L M | −(x̄ + K z̄)], and the Joseph covariance is
+    (L M) Lᵀ = (L M)_left − (L M)_right Kᵀ — the products of the congruence with L's identity
+    block done exactly.
+
+    Returns (PX⁺, z̄, S, chi2, processed) where PX⁺ = [P⁺ | −x⁺] (N, n, n+1), P⁺ not
+    symmetrised (see :func:`symmetrise`); z̄ and S are views into ``Mt``; processed is None
+    when every filter processed. Filters that do not process keep x̄ and P̄ (zero gain) but
+    still get their z̄, S and chi-square, which the gating networks need.
+    """
+    N, nm, _ = Mt.shape
+    S = Mt[:, n:, n:nm]
+    bottom = Mt[:, n:, :]
+    if nm - n == 2:  # Cramer's rule: a LAPACK call costs more than the whole 2×2 inverse
+        adj = S[:, ::-1, ::-1] * _COFACTOR_SIGNS
+        det = np.vecdot(S[:, 0, :], adj[:, :, 0])  # first row of S times first column of adj(S)
+        adj /= det[:, None, None]
+        G = adj @ bottom
+    elif nm - n == 1:
+        G = bottom / S
+    else:
+        G = np.linalg.solve(S, bottom)
+    residual = Mt[:, n:, -1]
+    chi2 = np.vecdot(residual, G[:, :, -1])
+    does = processes
+    if gate is not None:
+        does = chi2 <= gate if processes is None else processes & (chi2 <= gate)
+    if does is not None:
+        G *= does[:, None, None]
+    LM = Mt[:, :n, :] - Mt[:, :n, n:nm] @ G
+    PX = np.empty((N, n, n + 1))
+    np.subtract(LM[:, :, :n], LM[:, :, n:nm] @ G[:, :, :n], out=PX[:, :, :n])
+    PX[:, :, n] = LM[:, :, -1]
+    return PX, residual, S, chi2, does
+
+
+def symmetrise(P: np.ndarray) -> np.ndarray:
+    """(P + Pᵀ)/2 over the last two axes: removes the rounding asymmetry the products leave."""
+    return 0.5 * (P + np.swapaxes(P, -1, -2))
+
+
+def is_spd(P: np.ndarray, rtol: float = 1e-12) -> bool:
+    """P (n, n) symmetric (to ``rtol`` of its diagonal scale) and positive definite.
+
+    Checked on the correlation matrix D^-½ P D^-½: states with very different units (km and
+    km/s²) would otherwise make a plain Cholesky test meaningless. Zero-variance rows (blocks
+    a filter does not estimate) must be all-zero and are skipped.
+    """
+    d = np.diag(P)
+    live = d != 0.0
+    if np.any(d < 0.0) or np.any(P[~live]) or np.any(P[:, ~live]):
+        return False
+    Pl = P[np.ix_(live, live)]
+    s = 1.0 / np.sqrt(d[live])
+    C = Pl * s[:, None] * s[None, :]
+    if not np.all(np.isfinite(C)) or np.max(np.abs(C - C.T), initial=0.0) > rtol:
+        return False
+    try:
+        np.linalg.cholesky(C)
+    except np.linalg.LinAlgError:
+        return False
+    return True

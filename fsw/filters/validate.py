@@ -1,0 +1,51 @@
+"""Screening of incoming measurements before they reach any filter.
+
+A bank calls :func:`screen` first; it raises :class:`MeasurementRejected` with a reason, so a bad
+message is refused (and counted by the bank) without touching any filter state.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from fsw.filters.errors import MeasurementRejected
+
+
+def _finite_vector(values: Any, name: str) -> np.ndarray:
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise MeasurementRejected("non_finite", f"{name} is not numeric: {values!r}") from None
+    if arr.ndim != 1 or arr.size == 0:
+        raise MeasurementRejected("bad_dimension", f"{name} must be a non-empty vector, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise MeasurementRejected("non_finite", f"{name} has non-finite entries: {arr.tolist()}")
+    return arr
+
+
+def screen(meas: Any, kinds: Iterable[str], dimensions: dict[str, int | None]) -> tuple[np.ndarray, np.ndarray]:
+    """Check one ICD ``Measurement`` (or anything shaped like it) and return (value, sigma).
+
+    ``kinds`` are the kinds this bank has models for; ``dimensions`` the expected length of
+    each kind (None: any length).
+    """
+    kind = getattr(meas, "kind", None)
+    if kind not in set(kinds):
+        raise MeasurementRejected("unknown_kind", f"no model for measurement kind {kind!r}")
+    t = getattr(meas, "t_s", None)
+    if isinstance(t, bool) or not isinstance(t, (int, float, np.floating)) or not math.isfinite(t):
+        raise MeasurementRejected("non_finite", f"time tag {t!r} is not a finite number")
+    value = _finite_vector(getattr(meas, "value", None), "value")
+    sigma = _finite_vector(getattr(meas, "sigma", None), "sigma")
+    want = dimensions.get(kind)
+    if want is not None and value.size != want:
+        raise MeasurementRejected("bad_dimension", f"{kind} has {want} component(s), got {value.size}")
+    if sigma.size != value.size:
+        raise MeasurementRejected("bad_dimension", f"sigma has {sigma.size} components, value {value.size}")
+    if np.any(sigma <= 0.0):
+        raise MeasurementRejected("bad_sigma", f"sigma must be > 0, got {sigma.tolist()}")
+    return value, sigma

@@ -1,0 +1,352 @@
+"""The interface every gating network shares: consume bank records, produce filter weights.
+
+A gating network sees one :class:`~fsw.filters.record.BankRecord` per measurement and keeps a
+weight per filter. The weights sum to one over the *active* filters; a disabled filter
+(``record.active`` False) has weight zero. Networks differ in when they produce new weights:
+per measurement (Magill, mixture of experts, residual correlation) or per batch of M measurements
+(the seed 001 chi-square networks).
+
+Rules shared by all networks (enforced here, so each network only writes its own equations):
+
+* the record's filter names must be the network's, in the same order; arrays must have the
+  shapes the record declares and be finite — otherwise :class:`GatingInputError`;
+* parameters are a frozen config dataclass (``fsw.interface.typed.spec`` fields), validated on
+  construction and by :meth:`GatingNetwork.set_param`, which raises
+  :class:`UnknownParameterError` / :class:`InvalidParameterError`;
+* when a filter is disabled its weight goes to zero and the others are renormalised; when it is
+  enabled again it re-enters with the a-priori share 1/N_active and the others are scaled down to
+  make room (:func:`reenter_probabilities`), so no network needs an infinite time to trust it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar, Sequence
+
+import numpy as np
+
+from fsw.filters.record import BankRecord
+from fsw.interface import typed
+
+
+class GatingError(ValueError):
+    """Base class of every error a gating network raises on bad input or configuration."""
+
+
+class GatingInputError(GatingError):
+    """A bank record the network cannot use (wrong filters, shapes, or non-finite numbers)."""
+
+
+class UnknownParameterError(GatingError, KeyError):
+    """``set_param`` named a parameter the network does not have."""
+
+    def __str__(self) -> str:  # KeyError would otherwise quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class InvalidParameterError(GatingError):
+    """A parameter value outside its declared type or range, or inconsistent with the bank."""
+
+
+@dataclass(frozen=True)
+class WeightsUpdate:
+    """New weights produced by a gating network.
+
+    Attributes
+    ----------
+    network : registry name of the network (``"chi2"``, ...).
+    t : time tag of the last measurement that went into these weights [s].
+    seq : sequence number of that measurement.
+    batch : 0-based index of the update (batch index for batch networks, update count otherwise).
+    filters : filter names, bank order.
+    weights : (N,) weight per filter, zero for disabled filters, summing to one.
+    statistic : (N,) per-filter statistic behind the weights (e.g. G_k,i of seed 001 eq. 6), or None.
+    group_names, group_weights : hierarchical networks: bank names and top-level weights g_i.
+    conditional_weights : hierarchical networks: (N,) in-bank weight g_{j|i} of each filter.
+    """
+
+    network: str
+    t: float
+    seq: int
+    batch: int
+    filters: tuple[str, ...]
+    weights: np.ndarray
+    statistic: np.ndarray | None = None
+    group_names: tuple[str, ...] = ()
+    group_weights: np.ndarray | None = None
+    conditional_weights: np.ndarray | None = None
+
+    def groups(self) -> dict[str, float]:
+        """Top-level weight per bank (empty for single-level networks)."""
+        if self.group_weights is None:
+            return {}
+        return {name: float(w) for name, w in zip(self.group_names, self.group_weights)}
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready form (lists of floats)."""
+        out: dict[str, Any] = {
+            "network": self.network,
+            "t": float(self.t),
+            "seq": int(self.seq),
+            "batch": int(self.batch),
+            "filters": list(self.filters),
+            "weights": [float(w) for w in self.weights],
+        }
+        if self.statistic is not None:
+            out["statistic"] = [float(s) for s in self.statistic]
+        if self.group_weights is not None:
+            out["groups"] = self.groups()
+        if self.conditional_weights is not None:
+            out["conditional_weights"] = [float(w) for w in self.conditional_weights]
+        return out
+
+
+def log_normalize(log_w: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Log-sum-exp normalisation over ``mask``; entries outside the mask become −inf."""
+    out = np.full(log_w.shape, -np.inf)
+    if not np.any(mask):
+        return out
+    sub = log_w[mask]
+    top = np.max(sub)
+    out[mask] = sub - (top + np.log(np.sum(np.exp(sub - top))))
+    return out
+
+
+def apply_lower_bound(log_p: np.ndarray, mask: np.ndarray, lower_bound: float | None) -> np.ndarray:
+    """Seed 002 §II.B.2 "lower bounding of the conditional probabilities": raise every active
+    probability below ``lower_bound`` to it, taking the excess proportionally from the others,
+    so a hypothesis never becomes so improbable that it cannot win back quickly.
+
+    ``log_p`` must be normalised over ``mask``. Works in the linear domain: every probability
+    that could underflow there is below the bound and is replaced by it.
+    """
+    if lower_bound is None:
+        return log_p
+    n_active = int(np.count_nonzero(mask))
+    if n_active == 0:
+        return log_p
+    bound = min(lower_bound, 1.0 / n_active)
+    p = np.where(mask, np.exp(np.where(mask, log_p, 0.0)), 0.0)
+    floored = mask & (p < bound)
+    if not np.any(floored):
+        return log_p
+    # Scaling the free probabilities down can push another one under the bound: repeat.
+    for _ in range(n_active):
+        free = mask & ~floored
+        scale = (1.0 - bound * np.count_nonzero(floored)) / np.sum(p[free]) if np.any(free) else 0.0
+        newly = free & (p * scale < bound)
+        if not np.any(newly):
+            break
+        floored |= newly
+    out = np.full(log_p.shape, -np.inf)
+    free = mask & ~floored
+    out[floored] = np.log(bound)
+    if np.any(free):
+        scale = (1.0 - bound * np.count_nonzero(floored)) / np.sum(p[free])
+        out[free] = np.log(p[free] * scale)
+    return out
+
+
+def reenter_probabilities(p: np.ndarray, old_mask: np.ndarray, new_mask: np.ndarray) -> np.ndarray:
+    """Probability vector after the active set changes from ``old_mask`` to ``new_mask``.
+
+    Disabled filters drop to 0 and the rest are renormalised; each newly enabled filter gets the
+    a-priori share 1/N_active and the previously active ones keep their ratios in what is left.
+    If no previously active filter survives, the result is the uniform a-priori vector.
+    """
+    p = np.where(new_mask, p, 0.0)
+    kept = new_mask & old_mask
+    entering = new_mask & ~old_mask
+    n_active = int(np.count_nonzero(new_mask))
+    out = np.zeros_like(p, dtype=float)
+    if n_active == 0:
+        return out
+    total = float(np.sum(p[kept]))
+    if not np.any(kept) or total <= 0.0:
+        out[new_mask] = 1.0 / n_active
+        return out
+    share = 1.0 / n_active
+    out[entering] = share
+    out[kept] = p[kept] / total * (1.0 - share * np.count_nonzero(entering))
+    return out
+
+
+class GatingNetwork(ABC):
+    """A gating network over a fixed, named bank of N filters.
+
+    Subclasses set ``name`` (registry name) and ``params_type`` (their frozen config dataclass)
+    and implement :meth:`_update`, :meth:`_reset` and :meth:`_weights`.
+    """
+
+    name: ClassVar[str] = ""
+    params_type: ClassVar[type]
+
+    def __init__(self, filter_names: Sequence[str], params: Any = None):
+        names = tuple(str(n) for n in filter_names)
+        if len(names) == 0:
+            raise GatingError("a gating network needs at least one filter")
+        if len(set(names)) != len(names):
+            raise GatingError(f"duplicate filter names in {names!r}")
+        self.filters: tuple[str, ...] = names
+        self.params = self._validated(params if params is not None else self.params_type())
+        self._active = np.ones(len(names), dtype=bool)
+        self._updates = 0
+        self._rejected = 0
+        self.reset()
+
+    # ------------------------------------------------------------------ parameters
+    def _validated(self, params: Any) -> Any:
+        if isinstance(params, dict):
+            try:
+                params = typed.decode(self.params_type, params)
+            except typed.DecodeError as exc:
+                raise InvalidParameterError(str(exc)) from None
+        if not isinstance(params, self.params_type):
+            raise InvalidParameterError(
+                f"{self.name}: parameters must be {self.params_type.__name__}, got {type(params).__name__}"
+            )
+        try:
+            # Round trip through the declaration: enforces types, ranges and shapes even for
+            # instances built directly in code.
+            params = typed.decode(self.params_type, typed.encode(params))
+        except typed.DecodeError as exc:
+            raise InvalidParameterError(f"{self.name}: {exc}") from None
+        self._check_params(params)
+        return params
+
+    def _check_params(self, params: Any) -> None:
+        """Cross-field and bank-dependent checks; raise :class:`InvalidParameterError`."""
+
+    def set_param(self, name: str, value: Any) -> None:
+        """Change one parameter (telecommand ``set-param``); takes effect from the next update.
+
+        Raises :class:`UnknownParameterError` for a name the network does not have and
+        :class:`InvalidParameterError` for a value outside its declaration.
+        """
+        known = {f.name for f in dataclasses.fields(self.params_type)}
+        if name not in known:
+            raise UnknownParameterError(
+                f"{self.name} has no parameter {name!r}; known: {', '.join(sorted(known))}"
+            )
+        data = typed.encode(self.params)
+        data[name] = value.tolist() if isinstance(value, np.ndarray) else value
+        try:
+            new = typed.decode(self.params_type, data)
+        except typed.DecodeError as exc:
+            raise InvalidParameterError(f"{self.name}.{name}: {exc}") from None
+        new = self._validated(new)
+        old = self.params
+        self.params = new
+        self._params_changed(old, new)
+
+    def _params_changed(self, old: Any, new: Any) -> None:
+        """Hook for networks whose state depends on a parameter (e.g. the memory matrix)."""
+
+    # ------------------------------------------------------------------ records
+    def _check_record(self, record: BankRecord) -> np.ndarray:
+        if not isinstance(record, BankRecord):
+            raise GatingInputError(f"expected a BankRecord, got {type(record).__name__}")
+        if tuple(record.filters) != self.filters:
+            raise GatingInputError(f"record filters {tuple(record.filters)!r} differ from the bank {self.filters!r}")
+        n_f = len(self.filters)
+        res = np.asarray(record.residual)
+        if res.ndim != 2 or res.shape[0] != n_f or res.shape[1] < 1:
+            raise GatingInputError(f"residual must have shape ({n_f}, n), got {res.shape}")
+        n = res.shape[1]
+        S = np.asarray(record.S)
+        if S.shape != (n_f, n, n):
+            raise GatingInputError(f"S must have shape ({n_f}, {n}, {n}), got {S.shape}")
+        chi2 = np.asarray(record.chi2)
+        processed = np.asarray(record.processed)
+        if chi2.shape != (n_f,) or processed.shape != (n_f,):
+            raise GatingInputError(f"chi2 and processed must have shape ({n_f},)")
+        if not (np.all(np.isfinite(res)) and np.all(np.isfinite(S)) and np.all(np.isfinite(chi2))):
+            raise GatingInputError(f"non-finite residual, S or chi2 in record seq={record.seq}")
+        if np.any(chi2 < 0.0):
+            raise GatingInputError(f"negative chi-square in record seq={record.seq}")
+        if not np.isfinite(record.t):
+            raise GatingInputError("non-finite time tag")
+        mask = record.active_mask()
+        if mask.shape != (n_f,):
+            raise GatingInputError(f"active mask must have shape ({n_f},)")
+        return mask
+
+    def update(self, record: BankRecord) -> WeightsUpdate | None:
+        """Consume one record; return new weights when the network produces them, else None.
+
+        Raises :class:`GatingInputError` (and counts the rejection) for a record it cannot use;
+        the network state is then unchanged.
+        """
+        try:
+            mask = self._check_record(record)
+        except GatingInputError:
+            self._rejected += 1
+            raise
+        if not np.array_equal(mask, self._active):
+            if not np.any(mask):
+                self._rejected += 1
+                raise GatingInputError("every filter of the bank is disabled")
+            self._activation_changed(self._active.copy(), mask.copy())
+            self._active = mask.copy()
+        result = self._update(record, self._active)
+        if result is not None:
+            self._updates += 1
+        return result
+
+    def _make_update(self, record: BankRecord, batch: int, weights: np.ndarray, **extra: Any) -> WeightsUpdate:
+        return WeightsUpdate(
+            network=self.name, t=float(record.t), seq=int(record.seq), batch=batch,
+            filters=self.filters, weights=np.array(weights, dtype=float), **extra,
+        )
+
+    # ------------------------------------------------------------------ state
+    @property
+    def weights(self) -> np.ndarray:
+        """Current weight per filter (N,), zero for disabled filters, summing to one."""
+        return np.array(self._weights(), dtype=float)
+
+    @property
+    def active(self) -> np.ndarray:
+        """Active mask the network is currently using (N,)."""
+        return self._active.copy()
+
+    def reset(self) -> None:
+        """Return to the a-priori weights (telecommand ``reset-gating``, seed 001 §3.2)."""
+        self._reset()
+
+    def state_dict(self) -> dict[str, Any]:
+        """Status for telemetry and the ``status`` telecommand (JSON-ready)."""
+        out = {
+            "network": self.name,
+            "filters": list(self.filters),
+            "active": [bool(a) for a in self._active],
+            "weights": [float(w) for w in self.weights],
+            "params": typed.encode(self.params),
+            "updates": self._updates,
+            "rejected": self._rejected,
+        }
+        out.update(self._state_extra())
+        return out
+
+    def _state_extra(self) -> dict[str, Any]:
+        return {}
+
+    # ------------------------------------------------------------------ to implement
+    @abstractmethod
+    def _update(self, record: BankRecord, active: np.ndarray) -> WeightsUpdate | None:
+        """Network equations for one validated record."""
+
+    @abstractmethod
+    def _reset(self) -> None:
+        """Back to the a-priori state (all filters' shares equal over the active set)."""
+
+    @abstractmethod
+    def _weights(self) -> np.ndarray:
+        """Current (N,) weights."""
+
+    @abstractmethod
+    def _activation_changed(self, old: np.ndarray, new: np.ndarray) -> None:
+        """Adapt the internal state to a new active mask (see :func:`reenter_probabilities`)."""
+

@@ -1,0 +1,168 @@
+"""Magill's Bayesian filter-bank weights (seed 001 eqs. 1–4, seed 003 eqs. 7–8), in the log domain.
+
+Each filter i is a hypothesis α_i; with Gaussian residuals (seed 001 eq. 4)
+
+    f(y_k | α_i) = (2π)^{−n/2} |S_ik|^{−1/2} exp(−½ z̄_ikᵀ S_ik⁻¹ z̄_ik),
+
+the posterior probabilities obey the sequential Bayes rule (seed 001 eq. 3, seed 003 eqs. 7–8)
+
+    p_k,i = f(y_k | α_i) p_{k−1},i / Σ_j f(y_k | α_j) p_{k−1},j,   p_0,i = f(α_i) (uniform by default).
+
+Seed 003 §III notes that evaluating the product Π_k f(y_k | α_i) of eq. 7 directly underflows after
+a few hundred measurements. Here the recursion is carried on log p and normalised with
+log-sum-exp after every measurement, so the log-probabilities stay bounded (the largest is 0) and
+nothing underflows however long the sequence; a hypothesis can only reach probability exp(−∞)
+by an infinite amount of evidence. :func:`direct_product_weights` evaluates the literal product
+form for validation (it shows where that form fails).
+
+Optional lower bound (seed 002 §II.B.2, "lower bounding of the conditional probabilities"):
+after each update, probabilities below ``lower_bound`` are raised to it (the others share the
+rest), so the bank can switch to another filter in a bounded time after a regime change instead
+of having to undo all the evidence accumulated since the start — Magill never forgets otherwise.
+
+All measurements are used, processed or not (seed 001 §2: this is what penalises filters that
+only process a subset of the data types).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from fsw.filters.record import BankRecord
+from fsw.gating.base import (
+    GatingInputError,
+    GatingNetwork,
+    InvalidParameterError,
+    WeightsUpdate,
+    apply_lower_bound,
+    log_normalize,
+)
+from fsw.interface.typed import spec
+
+
+@dataclass(frozen=True)
+class MagillParams:
+    """Parameters of the Magill (MMAE) network."""
+
+    lower_bound: float | None = spec(
+        None, doc="floor on each filter's probability (seed 002 lower bounding); None: no floor", gt=0.0, lt=1.0
+    )
+    prior: tuple[float, ...] = spec((), doc="a-priori probabilities f(α_i), bank order; empty: uniform 1/N")
+
+
+def gaussian_log_likelihood(record: BankRecord) -> np.ndarray:
+    """ln f(y_j | α_i) of seed 001 eq. 4 for every filter; rejects a non-positive-definite S."""
+    sign, logdet = np.linalg.slogdet(np.asarray(record.S, dtype=float))
+    if np.any(sign <= 0.0):
+        raise GatingInputError(f"innovation covariance not positive definite in record seq={record.seq}")
+    return -0.5 * (np.asarray(record.chi2, dtype=float) + logdet + record.n * np.log(2.0 * np.pi))
+
+
+def direct_product_weights(loglik: np.ndarray, prior: np.ndarray | None = None) -> tuple[np.ndarray, int | None]:
+    """The literal product form of seed 003 eqs. 7–8 in double precision, for validation.
+
+    ``loglik`` (K, N) holds ln f(y_k | α_i). The conditional densities p(z*_k | α_i) =
+    Π_{m≤k} f(y_m | α_i) are accumulated as products of exp(ln f) and normalised with the prior.
+    Returns the (K, N) weights (NaN once every product has underflowed to zero) and the 0-based
+    index of the first measurement after which that happened (None if it never did).
+    """
+    loglik = np.asarray(loglik, dtype=float)
+    n_f = loglik.shape[1]
+    prior = np.full(n_f, 1.0 / n_f) if prior is None else np.asarray(prior, dtype=float)
+    with np.errstate(under="ignore", invalid="ignore", over="ignore"):
+        products = np.cumprod(np.exp(loglik), axis=0) * prior
+        total = products.sum(axis=1)
+        weights = products / total[:, None]
+    dead = np.flatnonzero(~(total > 0.0))
+    return weights, (int(dead[0]) if dead.size else None)
+
+
+class MagillNetwork(GatingNetwork):
+    """Log-domain Magill weights with an optional probability floor (per-measurement network)."""
+
+    name = "magill"
+    params_type = MagillParams
+
+    def _check_params(self, params: Any) -> None:
+        if params.prior:
+            prior = np.asarray(params.prior, dtype=float)
+            if prior.shape != (len(self.filters),):
+                raise InvalidParameterError(f"prior needs {len(self.filters)} values, got {prior.size}")
+            if np.any(prior <= 0.0) or abs(prior.sum() - 1.0) > 1e-9:
+                raise InvalidParameterError("prior probabilities must be positive and sum to 1")
+
+    def _log_prior(self, mask: np.ndarray) -> np.ndarray:
+        n_f = len(self.filters)
+        prior = np.asarray(self.params.prior, dtype=float) if self.params.prior else np.full(n_f, 1.0 / n_f)
+        return log_normalize(np.log(prior), mask)
+
+    def _reset(self) -> None:
+        self._logp = self._log_prior(self._active)
+        self._count = 0
+
+    def _weights(self) -> np.ndarray:
+        return np.exp(self._logp)
+
+    @property
+    def log_weights(self) -> np.ndarray:
+        """ln p_k,i (−inf for disabled filters); finite for every active filter."""
+        return self._logp.copy()
+
+    def _activation_changed(self, old: np.ndarray, new: np.ndarray) -> None:
+        kept = old & new
+        entering = new & ~old
+        n_active = int(np.count_nonzero(new))
+        if not np.any(kept):
+            self._logp = log_normalize(np.zeros(len(self.filters)), new)
+            return
+        logp = np.full(len(self.filters), -np.inf)
+        logp[kept] = log_normalize(self._logp, kept)[kept] + np.log1p(-np.count_nonzero(entering) / n_active)
+        logp[entering] = -np.log(n_active)
+        self._logp = logp
+
+    def _step(self, loglik: np.ndarray, mask: np.ndarray) -> None:
+        logp = log_normalize(self._logp + np.where(mask, loglik, 0.0), mask)
+        self._logp = apply_lower_bound(logp, mask, self.params.lower_bound)
+
+    def _update(self, record: BankRecord, active: np.ndarray) -> WeightsUpdate:
+        loglik = gaussian_log_likelihood(record)
+        self._step(loglik, active)
+        update = self._make_update(record, self._count, self._weights(), statistic=loglik)
+        self._count += 1
+        return update
+
+    def update_block(self, loglik: np.ndarray) -> np.ndarray:
+        """Apply K measurements given directly as log-likelihoods (K, N); returns the (K, N)
+        weights after each. Same recursion as :meth:`update`, vectorised over K when there is
+        no lower bound (for long replays and bulk validation)."""
+        loglik = np.asarray(loglik, dtype=float)
+        if loglik.ndim != 2 or loglik.shape[1] != len(self.filters):
+            raise GatingInputError(f"log-likelihoods must have shape (K, {len(self.filters)}), got {loglik.shape}")
+        if not np.all(np.isfinite(loglik)):
+            raise GatingInputError("non-finite log-likelihood")
+        mask = self._active
+        out = np.zeros(loglik.shape)
+        if self.params.lower_bound is None:
+            # Cumulative sums can grow large over long blocks; do them in chunks so the running
+            # total stays small relative to float64 resolution.
+            for start in range(0, len(loglik), 4096):
+                chunk = np.where(mask, loglik[start:start + 4096], 0.0)
+                cum = self._logp + np.cumsum(chunk, axis=0)
+                cum[:, ~mask] = -np.inf
+                top = np.max(cum, axis=1, keepdims=True)
+                logp = cum - (top + np.log(np.sum(np.exp(cum - top), axis=1, keepdims=True)))
+                out[start:start + len(chunk)] = np.exp(logp)
+                self._logp = logp[-1].copy()
+        else:
+            for k in range(len(loglik)):
+                self._step(loglik[k], mask)
+                out[k] = np.exp(self._logp)
+        self._count += len(loglik)
+        self._updates += len(loglik)
+        return out
+
+    def _state_extra(self) -> dict[str, Any]:
+        return {"measurements": self._count, "log_weights": [float(v) for v in self._logp]}

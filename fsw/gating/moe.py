@@ -1,0 +1,146 @@
+"""Mixture-of-experts softmax gating network trained online (seed 003 eqs. 11–20).
+
+Each filter i is an expert with a gating cell of weight vector a_i. For the input feature vector
+φ = φ(record):
+
+    u_i = a_iᵀ φ,                 g_i = exp(u_i) / Σ_j exp(u_j)               (eqs. 11–12)
+    f_i = f(z_k | α_i)            (Gaussian residual density, eq. 13)
+    h_i = f_i g_i / Σ_j f_j g_j   (a-posteriori probability, eq. 16)
+    a_i ← a_i + η (h_i − g_i) φ   (gradient ascent on l = ln Σ f_i g_i, eqs. 15–20)
+
+Everything is done with log-densities and log-sum-exp, so h never underflows however peaked the
+likelihoods are.
+
+Input features φ. Seed 003 uses the raw measurement vector (u_i = zᵀa_i), which makes the gate a
+function of *where* the measurement lies — the classical mixture-of-experts partition of the
+input space. Here the default is the constant φ = [1] ("constant"): u_i = a_i is then a learned
+log-prior per filter, the gate is the same for every input, and the only thing that moves it is
+filter performance through (h_i − g_i). That is what seed 001 §2 asks of a gating network for
+anomaly detection (weights that say how well each filter is doing, not how expert it is for a
+given input), and it avoids scale problems with raw inputs: a range of 10⁸ km or the tracking
+example's linearly growing range would multiply the step size by the input magnitude and
+saturate the softmax. The learning stays additive with a fading memory (seed 003 §III), which is
+why it switches faster than Magill after a regime change. ``features = "kind"`` appends a one-hot
+of the measurement kind (from ``kinds``) to the constant, so filters can become experts per data
+type; a callable ``feature_map`` can be passed to the constructor for anything else (its first
+component should be the constant 1, which the re-entry rule below uses).
+
+A disabled filter is left out of the softmax (g = 0, no learning). When it is enabled again its
+constant component is set so that, with the other features at zero, its share is 1/N_active.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, Literal
+
+import numpy as np
+
+from fsw.filters.record import BankRecord
+from fsw.gating.base import GatingInputError, GatingNetwork, InvalidParameterError, WeightsUpdate, log_normalize
+from fsw.gating.magill import gaussian_log_likelihood
+from fsw.interface.typed import spec
+
+FeatureMap = Callable[[BankRecord], np.ndarray]
+
+
+@dataclass(frozen=True)
+class MoeParams:
+    """Parameters of the mixture-of-experts gating network."""
+
+    eta: float = spec(1.0, doc="learning rate η of the gradient ascent (seed 003 eq. 20)", gt=0.0)
+    features: Literal["constant", "kind"] = spec(
+        "constant", doc="input features φ: constant 1 (pure performance learner) or constant + one-hot kind"
+    )
+    kinds: tuple[str, ...] = spec((), doc="measurement kinds of the one-hot features (features = 'kind')")
+
+
+def feature_vector(record: BankRecord, features: str, kinds: tuple[str, ...]) -> np.ndarray:
+    """φ(record) for the built-in feature sets; the first component is always the constant 1."""
+    if features == "constant":
+        return np.ones(1)
+    phi = np.zeros(1 + len(kinds))
+    phi[0] = 1.0
+    if record.kind in kinds:
+        phi[1 + kinds.index(record.kind)] = 1.0
+    return phi
+
+
+def reentry_bias(a: np.ndarray, kept: np.ndarray, entering: np.ndarray) -> np.ndarray:
+    """Gate weight vectors after filters re-enter: entering rows copy the kept rows' mean, with
+    the constant component set so that each has share 1/N_active at φ = [1, 0, …]."""
+    a = a.copy()
+    n_active = int(np.count_nonzero(kept | entering))
+    n_enter = int(np.count_nonzero(entering))
+    bias = a[kept, 0]
+    top = bias.max()
+    lse = top + np.log(np.sum(np.exp(bias - top)))
+    share = 1.0 / n_active
+    a[entering] = a[kept].mean(axis=0)
+    a[entering, 0] = lse + np.log(share) - np.log1p(-n_enter * share)
+    return a
+
+
+class MoeNetwork(GatingNetwork):
+    """Seed 003 softmax gating network with online gradient ascent (per-measurement network)."""
+
+    name = "moe"
+    params_type = MoeParams
+
+    def __init__(self, filter_names, params: Any = None, feature_map: FeatureMap | None = None, feature_dim: int | None = None):
+        if (feature_map is None) != (feature_dim is None):
+            raise InvalidParameterError("feature_map and feature_dim go together")
+        self._feature_map = feature_map
+        self._feature_dim = feature_dim
+        super().__init__(filter_names, params)
+
+    def _dim(self) -> int:
+        if self._feature_dim is not None:
+            return int(self._feature_dim)
+        return 1 if self.params.features == "constant" else 1 + len(self.params.kinds)
+
+    def _phi(self, record: BankRecord) -> np.ndarray:
+        if self._feature_map is None:
+            return feature_vector(record, self.params.features, self.params.kinds)
+        phi = np.asarray(self._feature_map(record), dtype=float)
+        if phi.shape != (self._dim(),) or not np.all(np.isfinite(phi)):
+            raise GatingInputError(f"feature map returned {phi.shape}, expected finite ({self._dim()},)")
+        return phi
+
+    def _reset(self) -> None:
+        # Equal (zero) cell weights: no filter favoured initially (seed 000 §III).
+        self._a = np.zeros((len(self.filters), self._dim()))
+        self._g = log_normalize(np.zeros(len(self.filters)), self._active)
+        self._count = 0
+
+    def _params_changed(self, old: Any, new: Any) -> None:
+        if (old.features, old.kinds) != (new.features, new.kinds):
+            self._reset()
+
+    def _weights(self) -> np.ndarray:
+        return np.exp(self._g)
+
+    @property
+    def cell_weights(self) -> np.ndarray:
+        """The gate's weight vectors a_i, (N, d)."""
+        return self._a.copy()
+
+    def _activation_changed(self, old: np.ndarray, new: np.ndarray) -> None:
+        kept, entering = old & new, new & ~old
+        if np.any(entering):
+            self._a = reentry_bias(self._a, kept, entering) if np.any(kept) else np.zeros_like(self._a)
+        self._g = log_normalize(self._a[:, 0], new)
+
+    def _update(self, record: BankRecord, active: np.ndarray) -> WeightsUpdate:
+        loglik = gaussian_log_likelihood(record)
+        phi = self._phi(record)
+        log_g = log_normalize(self._a @ phi, active)
+        log_h = log_normalize(np.where(active, loglik, 0.0) + log_g, active)
+        self._a += self.params.eta * np.outer(np.exp(log_h) - np.exp(log_g), phi)
+        self._g = log_normalize(self._a @ phi, active)
+        update = self._make_update(record, self._count, self._weights(), statistic=np.exp(log_h))
+        self._count += 1
+        return update
+
+    def _state_extra(self) -> dict[str, Any]:
+        return {"measurements": self._count, "cell_weights": self._a.tolist()}

@@ -1,0 +1,258 @@
+"""The ICD: every message navbank's processes exchange, declared once.
+
+Conventions used by every message:
+
+* ``t_s`` — simulation epoch, TDB seconds past J2000 (the time axis of every plot and test).
+* ``timestamp`` — the same instant as Foxglove-style ``{sec, nsec}`` since the Unix epoch (UTC),
+  so Foxglove's "header stamp" plot mode shows mission time.
+* Positions are Mars-centred ICRF/EME2000 in km, velocities km/s, unless a field says otherwise.
+* Measurement values: ``range`` [km], ``doppler`` [km/s, one-way range-rate equivalent;
+  1 mHz at X-band = ``fsw.astro.constants`` conversion], ``optical`` [pixel: sample, line],
+  ``generic-linear`` [units of the linear scenario].
+
+Each class carries ``SCHEMA_VERSION``; :mod:`fsw.interface.codec` encodes/decodes them and
+generates their JSON Schemas from these declarations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from fsw.interface.typed import spec
+
+SCHEMA_VERSION = 1
+
+MeasurementKind = Literal["range", "doppler", "optical", "generic-linear"]
+MEASUREMENT_KINDS: tuple[str, ...] = ("range", "doppler", "optical", "generic-linear")
+#: Dimension n_j of each kind (None: any, given by the scenario).
+MEASUREMENT_DIMENSION: dict[str, int | None] = {"range": 1, "doppler": 1, "optical": 2, "generic-linear": None}
+
+AnomalyClass = Literal["none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown"]
+ANOMALY_CLASSES: tuple[str, ...] = ("none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown")
+
+TelecommandName = Literal["reset-gating", "enable-filter", "disable-filter", "set-param", "status"]
+TELECOMMANDS: tuple[str, ...] = ("reset-gating", "enable-filter", "disable-filter", "set-param", "status")
+
+
+@dataclass(frozen=True, slots=True)
+class Stamp:
+    """Foxglove-style time: seconds and nanoseconds since the Unix epoch (UTC)."""
+
+    sec: int = spec(doc="whole seconds since 1970-01-01T00:00:00Z", ge=0)
+    nsec: int = spec(doc="nanoseconds within the second", ge=0, lt=1_000_000_000)
+
+    @classmethod
+    def from_unix(cls, unix_s: float) -> "Stamp":
+        sec = int(unix_s // 1)
+        nsec = int(round((unix_s - sec) * 1e9))
+        if nsec >= 1_000_000_000:
+            sec, nsec = sec + 1, nsec - 1_000_000_000
+        return cls(sec=max(sec, 0), nsec=nsec)
+
+    def to_unix(self) -> float:
+        return self.sec + self.nsec * 1e-9
+
+    def to_ns(self) -> int:
+        return self.sec * 1_000_000_000 + self.nsec
+
+
+@dataclass(frozen=True, slots=True)
+class Measurement:
+    """One measurement as the spacecraft receives it (sim → fsw)."""
+
+    seq: int = spec(doc="sequence number, 0-based, strictly increasing per run", ge=0)
+    t_s: float = spec(doc="time tag read on the onboard clock at reception, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="time tag as Unix time (Foxglove header stamp)")
+    kind: MeasurementKind = spec(doc="measurement type")
+    source: str = spec(doc="DSN station (range/doppler, e.g. 'DSS-14'), optical target ('mars', 'phobos', 'deimos'), or a scenario label")
+    value: tuple[float, ...] = spec(doc="observed value: range km; doppler km/s range-rate; optical [sample, line] pixel")
+    sigma: tuple[float, ...] = spec(doc="1-sigma noise of each component, same units as value")
+    attitude_q: tuple[float, ...] | None = spec(
+        None, doc="optical only: camera-to-ICRF attitude quaternion as known onboard, scalar first [w, x, y, z]", shape=(4,)
+    )
+    count_time_s: float | None = spec(None, doc="doppler only: count interval ending at t_s", unit="s", gt=0)
+
+    def __post_init__(self) -> None:
+        if len(self.value) == 0:
+            raise ValueError("value must not be empty")
+        if len(self.sigma) != len(self.value):
+            raise ValueError(f"sigma has {len(self.sigma)} components, value has {len(self.value)}")
+        want = MEASUREMENT_DIMENSION.get(self.kind)
+        if want is not None and len(self.value) != want:
+            raise ValueError(f"a {self.kind} measurement has {want} component(s), got {len(self.value)}")
+        if any(s <= 0.0 for s in self.sigma):
+            raise ValueError("sigma components must be > 0")
+        if self.kind == "optical" and self.attitude_q is None:
+            raise ValueError("an optical measurement needs attitude_q")
+
+
+@dataclass(frozen=True, slots=True)
+class Truth:
+    """True spacecraft and clock state (sim → ground only; the FSW never subscribes to it)."""
+
+    t_s: float = spec(doc="true epoch, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    position_km: tuple[float, ...] = spec(doc="Mars-centred ICRF position", unit="km", shape=(3,))
+    velocity_km_s: tuple[float, ...] = spec(doc="Mars-centred ICRF velocity", unit="km/s", shape=(3,))
+    clock_phase_s: float = spec(doc="onboard clock phase error (clock reading minus TDB)", unit="s")
+    clock_frequency: float = spec(doc="onboard clock fractional frequency error", unit="1")
+    clock_drift_per_s: float = spec(doc="onboard clock fractional frequency drift", unit="1/s")
+    srp_scale: float = spec(1.0, doc="true solar-radiation-pressure scale factor", unit="1")
+    acs_accel_km_s2: tuple[float, ...] = spec((0.0, 0.0, 0.0), doc="true attitude-thruster acceleration, ICRF", unit="km/s^2", shape=(3,))
+    active_faults: tuple[str, ...] = spec((), doc="identifiers of the faults active at t_s")
+
+
+@dataclass(frozen=True, slots=True)
+class FaultEvent:
+    """A fault starting or ending (sim → ground), so campaigns can score detection."""
+
+    t_s: float = spec(doc="event epoch, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    fault_id: str = spec(doc="identifier of the fault within the scenario")
+    fault_type: str = spec(doc="fault type, e.g. 'optical-bias', 'range-bias', 'clock-bias', 'thruster-mismodel'")
+    event: Literal["start", "end"] = spec(doc="whether the fault starts or ends")
+    fault_class: AnomalyClass = spec(doc="the anomaly class a perfect diagnosis would give")
+    magnitude: dict[str, float] = spec(default_factory=dict, doc="fault parameters with units in their names")
+
+
+@dataclass(frozen=True, slots=True)
+class FilterWeights:
+    """Weights of one gating network after one batch (fsw → ground)."""
+
+    t_s: float = spec(doc="epoch of the last measurement in the batch, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    network: str = spec(doc="gating network name, e.g. 'chi2'")
+    batch: int = spec(doc="batch index, 0-based", ge=0)
+    filters: tuple[str, ...] = spec(doc="filter names, bank order")
+    weights: tuple[float, ...] = spec(doc="weight per filter; sums to 1 over enabled filters", unit="1")
+    groups: dict[str, float] = spec(default_factory=dict, doc="hierarchical networks: top-level weight per bank")
+    statistic: tuple[float, ...] = spec((), doc="per-filter batch statistic behind the weights (e.g. G_k,i of seed 001 eq. 6)")
+
+    def __post_init__(self) -> None:
+        if len(self.filters) != len(self.weights):
+            raise ValueError(f"{len(self.filters)} filters but {len(self.weights)} weights")
+        if self.statistic and len(self.statistic) != len(self.filters):
+            raise ValueError(f"{len(self.filters)} filters but {len(self.statistic)} statistics")
+
+
+@dataclass(frozen=True, slots=True)
+class AnomalyReport:
+    """The onboard anomaly flag and diagnosis (fsw → ground)."""
+
+    t_s: float = spec(doc="epoch of the decision, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    flag: bool = spec(doc="an anomaly is declared")
+    anomaly_class: AnomalyClass = spec(doc="diagnosed class")
+    confidence: float = spec(doc="confidence in the class", unit="1", ge=0.0, le=1.0)
+    onset_s: float | None = spec(None, doc="estimated onset epoch, TDB seconds past J2000", unit="s")
+    declared_s: float | None = spec(None, doc="epoch at which the flag was raised", unit="s")
+    network: str = spec("", doc="gating network whose weights were used")
+    statistic: float = spec(0.0, doc="detection statistic at t_s", unit="1")
+    threshold: float = spec(0.0, doc="declaration threshold", unit="1")
+    evidence: dict[str, float] = spec(default_factory=dict, doc="filter name -> weight at the decision")
+
+
+@dataclass(frozen=True, slots=True)
+class Estimate:
+    """A navigation solution (fsw → ground)."""
+
+    t_s: float = spec(doc="epoch of the estimate, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    filter: str = spec(doc="filter name, or 'combined' (weighted sum) / 'best' (highest weight)")
+    position_km: tuple[float, ...] = spec(doc="Mars-centred ICRF position", unit="km", shape=(3,))
+    velocity_km_s: tuple[float, ...] = spec(doc="Mars-centred ICRF velocity", unit="km/s", shape=(3,))
+    position_sigma_km: float = spec(doc="root-trace of the position covariance (RTPC)", unit="km", ge=0.0)
+    state_names: tuple[str, ...] = spec(doc="names of the state components")
+    state: tuple[float, ...] = spec(doc="full state vector, units per state_names")
+    sigma: tuple[float, ...] = spec(doc="1-sigma of each state component (sqrt of the covariance diagonal)")
+    covariance: tuple[tuple[float, ...], ...] | None = spec(None, doc="full covariance, row-major (optional)")
+
+    def __post_init__(self) -> None:
+        n = len(self.state_names)
+        if len(self.state) != n or len(self.sigma) != n:
+            raise ValueError(f"state_names has {n} entries, state {len(self.state)}, sigma {len(self.sigma)}")
+        if self.covariance is not None and (len(self.covariance) != n or any(len(r) != n for r in self.covariance)):
+            raise ValueError(f"covariance must be {n}x{n}")
+
+
+@dataclass(frozen=True, slots=True)
+class BudgetReport:
+    """One frame of the FSW frame executive (fsw → ground)."""
+
+    frame: int = spec(doc="frame index, 0-based", ge=0)
+    t_s: float = spec(doc="simulated epoch at the end of the frame, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    mode: Literal["cpu", "work-units"] = spec(doc="budget accounting mode")
+    used: float = spec(doc="budget used this frame (scaled CPU seconds, or work units)", ge=0.0)
+    budget: float = spec(doc="budget per frame (scaled CPU seconds, or work units)", gt=0.0)
+    utilisation: float = spec(doc="used / budget (may exceed 1 on an overrun)", unit="1", ge=0.0)
+    processed: int = spec(doc="stages (work items) completed this frame", ge=0)
+    deferred: int = spec(doc="due stages not run this frame, moved to a later frame", ge=0)
+    backlog: int = spec(doc="measurement jobs with work outstanding at the end of the frame", ge=0)
+    overruns: int = spec(doc="cumulative count of items that exceeded the remaining budget", ge=0)
+    errors: int = spec(0, doc="cumulative count of work items that raised", ge=0)
+
+
+@dataclass(frozen=True, slots=True)
+class Telecommand:
+    """A command to the FSW (ground → fsw, as a Zenoh query payload)."""
+
+    id: str = spec(doc="command identifier chosen by the sender, echoed in the reply")
+    command: TelecommandName = spec(doc="what to do")
+    network: str | None = spec(None, doc="gating network the command applies to (reset-gating, set-param)")
+    filter: str | None = spec(None, doc="filter the command applies to (enable-filter, disable-filter)")
+    param: str | None = spec(None, doc="parameter name (set-param), e.g. 'sigma_w', 'batch_size', 'eta'")
+    value: float | None = spec(None, doc="parameter value (set-param)")
+
+    def __post_init__(self) -> None:
+        needs = {
+            "enable-filter": ("filter",),
+            "disable-filter": ("filter",),
+            "set-param": ("network", "param", "value"),
+        }.get(self.command, ())
+        for name in needs:
+            if getattr(self, name) is None:
+                raise ValueError(f"'{self.command}' needs '{name}'")
+
+
+@dataclass(frozen=True, slots=True)
+class TelecommandReply:
+    """The FSW's answer to a telecommand."""
+
+    id: str = spec(doc="identifier of the command answered ('' if it could not be read)")
+    ok: bool = spec(doc="the command was valid and carried out")
+    error: str = spec("", doc="why the command was rejected")
+    status: dict[str, float] = spec(default_factory=dict, doc="counters and values (status command)")
+    detail: dict[str, str] = spec(default_factory=dict, doc="textual status (filters enabled, networks, ...)")
+
+
+@dataclass(frozen=True, slots=True)
+class RunStatus:
+    """Lifecycle and counters of a process (start, periodic, end-of-run)."""
+
+    t_s: float = spec(doc="simulated epoch, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    run_id: str = spec(doc="run identifier (the Zenoh key prefix navbank/<run-id>/)")
+    source: Literal["sim", "fsw", "ground", "replay"] = spec(doc="process reporting")
+    state: Literal["start", "running", "end-of-run", "error"] = spec(doc="lifecycle state")
+    counts: dict[str, int] = spec(default_factory=dict, doc="counters, e.g. published, processed, rejected, lost")
+    message: str = spec("", doc="human-readable detail (errors)")
+
+
+#: Every ICD type, by its schema name.
+MESSAGE_TYPES: dict[str, type] = {
+    cls.__name__: cls
+    for cls in (
+        Measurement,
+        Truth,
+        FaultEvent,
+        FilterWeights,
+        AnomalyReport,
+        Estimate,
+        BudgetReport,
+        Telecommand,
+        TelecommandReply,
+        RunStatus,
+    )
+}

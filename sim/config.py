@@ -1,0 +1,37 @@
+"""The simulator's top-level configuration: trajectory, forces, clock, sensors, faults, truth output.
+
+The random seed is not part of it: the caller gives it to :func:`sim.stream.generate`, so one
+configuration runs under many seeds (Monte Carlo campaigns).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from fsw.interface.typed import spec
+from sim.clock import ClockConfig
+from sim.dynamics.config import ForceModelConfig, TrajectoryConfig
+from sim.faults.config import FaultConfig, fault_ids
+from sim.sensors.config import OpticalConfig, RadiometricConfig
+
+
+@dataclass(frozen=True, slots=True)
+class SimConfig:
+    """Everything the truth/sensor simulator needs except the seed."""
+
+    trajectory: TrajectoryConfig = spec(TrajectoryConfig(), doc="approach trajectory (entry conditions, arc length)")
+    forces: ForceModelConfig = spec(ForceModelConfig(), doc="truth force model and its dispersions")
+    clock: ClockConfig = spec(ClockConfig(), doc="onboard clock random process")
+    radiometric: RadiometricConfig = spec(RadiometricConfig(), doc="DSN one-way range and Doppler")
+    optical: OpticalConfig = spec(OpticalConfig(), doc="optical navigation camera")
+    faults: tuple[FaultConfig, ...] = spec((), doc="injected faults (see sim.faults.config)")
+    truth_interval_s: float = spec(
+        600.0, doc="cadence of published Truth messages; 0 publishes one at every measurement time", unit="s", ge=0.0
+    )
+
+    def __post_init__(self) -> None:
+        fault_ids(self.faults)  # unique identifiers
+        span = self.trajectory.span_days
+        for f in self.faults:
+            if f.onset_day > span:
+                raise ValueError(f"fault {f.type} starts on day {f.onset_day}, after the {span}-day run")

@@ -1,0 +1,1 @@
+"""Built-in scenarios: truth and measurement generators."""

@@ -1,0 +1,88 @@
+"""Configuration of the simulated sensors: DSN one-way radiometrics and the optical camera.
+
+Default noise levels and their sources:
+
+* Range 1 m (1-sigma): DSN sequential/PN ranging at X-band, random error ~1 m or better at
+  deep-space distances (DSN Telecommunications Link Design Handbook 810-005, modules 203/214).
+* Doppler 0.1 mm/s (1-sigma) at a 60 s count: X-band Doppler noise of ~0.03–0.1 mm/s at 60 s
+  (810-005 module 202); the conservative end is taken because one-way data also carry the
+  onboard clock's short-term instability.
+* Optical centroiding 0.25 px for the point-like moons, and max(0.25 px, 1e-3 x apparent
+  diameter) for Mars, whose centre is found from a limb fit whose error grows with the disc.
+  Seed 001 Table 2 calls its 0.2/0.3 px "small" bias "on the order of uncertainty in the
+  measurements", which this matches.
+* Attitude knowledge 5 urad per axis (1-sigma): star-tracker class, ~0.2 px at 24 urad/px.
+
+Default schedule: three tracking passes a day, 3 h each, every 8 h from the scenario start,
+each flown by the station (Goldstone, Canberra, Madrid) that sees the spacecraft highest over
+the pass; range every 10 min and Doppler every 60 s while in a pass and above 10 deg; one
+image every 30 min cycling Mars, Phobos, Deimos (the next visible target if the scheduled one
+is not). Over 45 days: ~24,000 Doppler, ~2,400 range and ~2,100 optical measurements.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from fsw.interface.typed import spec
+
+
+@dataclass(frozen=True, slots=True)
+class RadiometricConfig:
+    """One-way uplink range and Doppler from the DSN, time-tagged by the onboard clock."""
+
+    stations: tuple[str, ...] = spec(("DSS-14", "DSS-43", "DSS-63"), doc="candidate DSN stations (fsw.astro.stations names)")
+    passes_per_day: int = spec(3, doc="tracking passes per day, evenly spaced", ge=0, le=24)
+    pass_duration_h: float = spec(3.0, doc="length of each tracking pass", unit="h", gt=0.0, le=24.0)
+    first_pass_offset_h: float = spec(0.0, doc="start of the first pass after the scenario start", unit="h", ge=0.0)
+    min_elevation_deg: float = spec(10.0, doc="minimum station elevation for a measurement", unit="deg", ge=-90.0, le=90.0)
+    range_enabled: bool = spec(True, doc="generate range measurements")
+    doppler_enabled: bool = spec(True, doc="generate Doppler measurements")
+    range_interval_s: float = spec(600.0, doc="range cadence inside a pass", unit="s", gt=0.0)
+    doppler_interval_s: float = spec(60.0, doc="Doppler cadence inside a pass", unit="s", gt=0.0)
+    doppler_count_s: float = spec(60.0, doc="Doppler count interval ending at the time tag", unit="s", gt=0.0)
+    range_sigma_m: float = spec(1.0, doc="range noise 1-sigma", unit="m", gt=0.0)
+    doppler_sigma_mm_s: float = spec(0.1, doc="Doppler noise 1-sigma as range rate at the count interval", unit="mm/s", gt=0.0)
+
+    def __post_init__(self) -> None:
+        if not self.stations:
+            raise ValueError("at least one station is needed")
+        if self.passes_per_day and self.pass_duration_h * self.passes_per_day > 24.0:
+            raise ValueError("passes overlap: passes_per_day x pass_duration_h exceeds 24 h")
+
+
+@dataclass(frozen=True, slots=True)
+class OpticalConfig:
+    """Narrow-angle camera imaging Mars, Phobos and Deimos."""
+
+    enabled: bool = spec(True, doc="generate optical measurements")
+    targets: tuple[str, ...] = spec(("mars", "phobos", "deimos"), doc="targets, imaged in this cyclic order")
+    image_interval_s: float = spec(1800.0, doc="image cadence", unit="s", gt=0.0)
+    first_image_offset_s: float = spec(900.0, doc="first image after the scenario start", unit="s", ge=0.0)
+    pixels: int = spec(1024, doc="detector size (square)", unit="px", gt=0)
+    pixel_pitch_um: float = spec(12.0, doc="pixel pitch", unit="um", gt=0.0)
+    focal_length_mm: float = spec(500.0, doc="focal length", unit="mm", gt=0.0)
+    principal_point_px: tuple[float, ...] = spec(
+        (512.5, 512.5), doc="principal point [sample, line]; pixel k spans [k-0.5, k+0.5)", unit="px", shape=(2,)
+    )
+    attitude_knowledge_urad: float = spec(5.0, doc="attitude-knowledge error 1-sigma per camera axis", unit="urad", ge=0.0)
+    pointing_control_mrad: float = spec(
+        1.0, doc="pointing-control error 1-sigma per cross-boresight axis (target off-centre)", unit="mrad", ge=0.0
+    )
+    edge_margin_px: float = spec(10.0, doc="a target centre (or Mars' whole disc) must lie this far inside the image", unit="px", ge=0.0)
+    sun_exclusion_deg: float = spec(30.0, doc="minimum angle between boresight and Sun", unit="deg", ge=0.0, le=180.0)
+    glare_factor: float = spec(1.5, doc="a moon is lost in Mars' glare within this many Mars apparent radii", unit="1", ge=1.0)
+    glare_margin_px: float = spec(5.0, doc="extra glare margin beyond glare_factor x Mars apparent radius", unit="px", ge=0.0)
+    moon_sigma_px: float = spec(0.25, doc="centroid noise 1-sigma (sample and line) for Phobos and Deimos", unit="px", gt=0.0)
+    mars_sigma_floor_px: float = spec(0.25, doc="Mars centre-finding noise floor", unit="px", gt=0.0)
+    mars_sigma_fraction: float = spec(1e-3, doc="Mars centre-finding noise per pixel of apparent diameter", unit="1", ge=0.0)
+
+    def __post_init__(self) -> None:
+        known = {"mars", "phobos", "deimos"}
+        if not self.targets or any(t not in known for t in self.targets) or len(set(self.targets)) != len(self.targets):
+            raise ValueError(f"targets must be distinct names from {sorted(known)}, got {self.targets}")
+
+    @property
+    def focal_px(self) -> float:
+        """Focal length in pixels."""
+        return self.focal_length_mm * 1e3 / self.pixel_pitch_um

@@ -1,0 +1,254 @@
+"""The measurement stream: one simulated run as time-ordered ICD messages.
+
+:func:`generate` flies the truth trajectory and clock, makes every measurement, injects the
+faults and returns a :class:`SimRun`: sequence-numbered :class:`~fsw.interface.messages.Measurement`s
+in time order, :class:`~fsw.interface.messages.Truth` at a cadence (exact truth at any time
+through :meth:`SimRun.truth_at`), and :class:`~fsw.interface.messages.FaultEvent`s.
+
+Randomness. ``numpy.random.SeedSequence(seed).spawn`` gives each component its own child stream,
+always in the order of :data:`COMPONENTS`; each component draws a fixed amount per schedule slot
+whatever the geometry or the faults. So the same seed gives a bit-identical run, and a faulted
+run differs from the un-faulted one with the same seed *only* by the fault.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass, field
+from typing import Iterator
+
+import numpy as np
+
+from fsw.astro.constants import SECONDS_PER_DAY
+from fsw.astro.time import tdb_to_unix, utc_iso_to_tdb
+from fsw.interface import topics
+from fsw.interface.messages import FaultEvent, Measurement, Stamp, Truth
+from sim.clock import ClockTruth, simulate_clock
+from sim.config import SimConfig
+from sim.faults.apply import (
+    FaultWindow,
+    active_ids,
+    clock_steps,
+    doppler_bias_km_s,
+    fault_events,
+    fault_windows,
+    optical_bias_px,
+    range_bias_km,
+)
+from sim.faults.config import FaultConfig
+from sim.faults.dynamics import apply_dynamics_faults
+from sim.sensors.geometry import Scene
+from sim.sensors.optical import OpticalData, simulate_optical
+from sim.sensors.radiometric import RadioData, simulate_radiometric
+from sim.trajectories.insight import build_truth_trajectory
+
+#: Components with their own random stream, in spawn order (append only: never reorder).
+COMPONENTS: tuple[str, ...] = ("trajectory", "clock", "radiometric", "optical")
+
+_CLOCK_MARGIN_S = 3600.0
+
+
+def component_seeds(seed: int) -> dict[str, np.random.SeedSequence]:
+    """Independent child seed sequences of ``seed``, one per component."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    children = np.random.SeedSequence(int(seed)).spawn(len(COMPONENTS))
+    return dict(zip(COMPONENTS, children))
+
+
+def _stamps(t_tdb: np.ndarray) -> list[Stamp]:
+    unix = np.atleast_1d(tdb_to_unix(np.asarray(t_tdb, dtype=float)))
+    return [Stamp.from_unix(float(u)) for u in unix]
+
+
+@dataclass
+class SimRun:
+    """One simulated run: messages plus the truth objects behind them.
+
+    ``t_true[k]`` is the true (TDB) reception time of ``measurements[k]``; ``origin[k]`` is
+    ``"radio"`` or ``"optical"`` (``"linear"`` for wrapped linear scenarios) and ``index[k]`` the
+    row in ``radio``/``optical`` that produced it.
+    """
+
+    measurements: list[Measurement]
+    truth: list[Truth]
+    fault_events: list[FaultEvent]
+    t_start: float
+    t_end: float
+    seed: int | None = None
+    t_true: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
+    index: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    trajectory: object | None = None
+    clock: ClockTruth | None = None
+    windows: tuple[FaultWindow, ...] = ()
+    radio: RadioData | None = None
+    optical: OpticalData | None = None
+    config: SimConfig | None = None
+
+    def truth_at(self, t_tdb: float) -> Truth:
+        """Exact truth at any true TDB time inside the run (for scoring)."""
+        if self.trajectory is None or self.clock is None:
+            raise ValueError("this run has no trajectory/clock truth (a linear scenario)")
+        return _truth_messages(self.trajectory, self.clock, self.windows, np.array([float(t_tdb)]))[0]
+
+    def state_at(self, t_tdb) -> np.ndarray:
+        """True Mars-centred ICRF state(s) [km, km/s] at TDB time(s)."""
+        if self.trajectory is None:
+            raise ValueError("this run has no trajectory truth (a linear scenario)")
+        return self.trajectory.state(t_tdb)
+
+    def iter_messages(self) -> Iterator[tuple[str, object]]:
+        """(topic, message) for every message in time order (fault events, then truth, then
+        measurements at equal times). Topics are the bare ``fsw.interface.topics`` names."""
+        faults = ((e.t_s, 0, i, topics.SIM_FAULTS, e) for i, e in enumerate(self.fault_events))
+        truth = ((m.t_s, 1, i, topics.SIM_TRUTH, m) for i, m in enumerate(self.truth))
+        t_meas = self.t_true if self.t_true.size == len(self.measurements) else [m.t_s for m in self.measurements]
+        meas = ((float(t), 2, i, topics.SIM_MEASUREMENTS, m) for i, (t, m) in enumerate(zip(t_meas, self.measurements)))
+        for _, _, _, topic, msg in heapq.merge(faults, truth, meas, key=lambda x: (x[0], x[1], x[2])):
+            yield topic, msg
+
+    def counts(self) -> dict[str, int]:
+        """Number of measurements per kind."""
+        out: dict[str, int] = {}
+        for m in self.measurements:
+            out[m.kind] = out.get(m.kind, 0) + 1
+        return out
+
+
+def _truth_messages(trajectory, clock: ClockTruth, windows, t: np.ndarray) -> list[Truth]:
+    x = np.atleast_2d(trajectory.state(t))
+    b, f, a = clock.state(t)
+    srp = np.atleast_1d(trajectory.srp_scale(t))
+    acs = np.atleast_2d(trajectory.acs_accel(t))
+    ids = active_ids(windows, t)
+    stamps = _stamps(t)
+    return [
+        Truth(
+            t_s=float(t[k]),
+            timestamp=stamps[k],
+            position_km=tuple(float(v) for v in x[k, :3]),
+            velocity_km_s=tuple(float(v) for v in x[k, 3:]),
+            clock_phase_s=float(b[k]),
+            clock_frequency=float(f[k]),
+            clock_drift_per_s=float(a[k]),
+            srp_scale=float(srp[k]),
+            acs_accel_km_s2=tuple(float(v) for v in acs[k]),
+            active_faults=ids[k],
+        )
+        for k in range(t.size)
+    ]
+
+
+def scenario_span(cfg: SimConfig) -> tuple[float, float]:
+    """(t_start, t_end) TDB of the run: the approach arc ending at the entry epoch."""
+    t_end = utc_iso_to_tdb(cfg.trajectory.entry_epoch_utc)
+    return t_end - cfg.trajectory.span_days * SECONDS_PER_DAY, t_end
+
+
+def generate(cfg: SimConfig = SimConfig(), faults: tuple[FaultConfig, ...] | None = None, seed: int = 0) -> SimRun:
+    """Simulate one run. ``faults`` replaces ``cfg.faults`` when given (e.g. a preset)."""
+    faults = tuple(cfg.faults if faults is None else faults)
+    seeds = component_seeds(seed)
+    t_start, t_end = scenario_span(cfg)
+    windows = fault_windows(faults, t_start)
+    for w in windows:
+        if w.t_on > t_end:
+            raise ValueError(f"fault {w.id} starts after the end of the run")
+
+    nominal = build_truth_trajectory(cfg.trajectory, cfg.forces, np.random.default_rng(seeds["trajectory"]))
+    trajectory = apply_dynamics_faults(
+        nominal, cfg.trajectory, cfg.forces, windows, lambda: np.random.default_rng(seeds["trajectory"])
+    )
+    clock = simulate_clock(cfg.clock, t_start - _CLOCK_MARGIN_S, t_end + _CLOCK_MARGIN_S,
+                           np.random.default_rng(seeds["clock"]))
+    clock = clock.with_steps(clock_steps(windows))
+    scene = Scene(trajectory.position, t_start, t_end, step_s=cfg.trajectory.ephemeris_step_s)
+
+    _, radio = simulate_radiometric(cfg.radiometric, scene, clock, t_start, t_end,
+                                    np.random.default_rng(seeds["radiometric"]))
+    optical = simulate_optical(cfg.optical, scene, t_start, t_end, np.random.default_rng(seeds["optical"]))
+
+    is_range = radio.kind == "range"
+    r_bias = np.where(is_range, range_bias_km(windows, radio.t_rx), doppler_bias_km_s(windows, radio.t_rx))
+    radio_value = radio.clean + radio.noise + r_bias
+    opt_value = optical.clean + optical.noise + optical_bias_px(windows, optical.t_rx)
+
+    # Merge by true reception time; at equal times range, Doppler, then optical.
+    t_all = np.concatenate((radio.t_rx, optical.t_rx))
+    rank = np.concatenate((np.where(is_range, 0, 1), np.full(len(optical), 2)))
+    origin = np.array(["radio"] * len(radio) + ["optical"] * len(optical), dtype=object)
+    index = np.concatenate((np.arange(len(radio)), np.arange(len(optical)))).astype(np.int64)
+    order = np.lexsort((rank, t_all))
+    t_true = t_all[order]
+    tags = t_true + clock.phase(t_true) if t_true.size else t_true
+    stamps = _stamps(tags) if t_true.size else []
+
+    measurements: list[Measurement] = []
+    count_s = float(cfg.radiometric.doppler_count_s)
+    for seq, k in enumerate(order):
+        i = int(index[k])
+        tag = float(tags[seq])
+        if origin[k] == "radio":
+            kind = str(radio.kind[i])
+            measurements.append(Measurement(
+                seq=seq, t_s=tag, timestamp=stamps[seq], kind=kind, source=str(radio.station[i]),
+                value=(float(radio_value[i]),), sigma=(float(radio.sigma[i]),),
+                count_time_s=count_s if kind == "doppler" else None,
+            ))
+        else:
+            measurements.append(Measurement(
+                seq=seq, t_s=tag, timestamp=stamps[seq], kind="optical", source=str(optical.target[i]),
+                value=(float(opt_value[i, 0]), float(opt_value[i, 1])),
+                sigma=(float(optical.sigma[i, 0]), float(optical.sigma[i, 1])),
+                attitude_q=tuple(float(v) for v in optical.attitude_q[i]),
+            ))
+
+    if cfg.truth_interval_s > 0.0:
+        n = int(math.floor((t_end - t_start) / cfg.truth_interval_s + 1e-9)) + 1
+        t_truth = t_start + cfg.truth_interval_s * np.arange(n)
+    else:
+        t_truth = np.unique(t_true)
+    truth = _truth_messages(trajectory, clock, windows, t_truth) if t_truth.size else []
+
+    return SimRun(
+        measurements=measurements,
+        truth=truth,
+        fault_events=fault_events(windows, t_end),
+        t_start=t_start,
+        t_end=t_end,
+        seed=int(seed),
+        t_true=t_true,
+        origin=origin[order],
+        index=index[order],
+        trajectory=trajectory,
+        clock=clock,
+        windows=windows,
+        radio=radio,
+        optical=optical,
+        config=cfg,
+    )
+
+
+def linear_tracking_run(track, source: str = "chaer-tracking", t0_tdb: float = 0.0) -> SimRun:
+    """Wrap a linear tracking sequence (``sim.scenarios.chaer_tracking.TrackingRun``) as a run of
+    ``generic-linear`` measurements: value z_k, sigma sqrt(r1), sqrt(r2) of its noise segment,
+    time tag ``t0_tdb + t_k``. The linear truth stays in ``track`` (no Truth messages)."""
+    t = t0_tdb + np.asarray(track.t, dtype=float)
+    z = np.asarray(track.z, dtype=float)
+    alpha = np.asarray(track.alpha, dtype=float)
+    sig = np.sqrt(alpha[np.asarray(track.segment), 2:4])
+    if not (np.all(np.isfinite(z)) and np.all(sig > 0.0)):
+        raise ValueError("linear measurements need finite values and positive noise variances")
+    stamps = _stamps(t)
+    meas = [
+        Measurement(seq=k, t_s=float(t[k]), timestamp=stamps[k], kind="generic-linear", source=source,
+                    value=tuple(float(v) for v in z[k]), sigma=tuple(float(s) for s in sig[k]))
+        for k in range(t.size)
+    ]
+    return SimRun(
+        measurements=meas, truth=[], fault_events=[], t_start=float(t[0]) if t.size else t0_tdb,
+        t_end=float(t[-1]) if t.size else t0_tdb, t_true=t, origin=np.full(t.size, "linear", dtype=object),
+        index=np.arange(t.size, dtype=np.int64),
+    )

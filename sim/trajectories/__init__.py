@@ -1,0 +1,1 @@
+"""Built-in truth trajectories (``insight-approach``)."""

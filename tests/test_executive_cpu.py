@@ -1,0 +1,110 @@
+"""Frame executive in CPU mode: charging measured thread CPU x cpu_scale, admission by learned cost,
+and a real CPU-burning workload (asserting structure, not timing)."""
+
+import time
+
+from fsw.executive import BudgetConfig, FrameExecutive, Job, Stage
+
+
+class FakeClock:
+    """A CPU clock that only the stages advance."""
+
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+    def burn(self, seconds):
+        def fn():
+            self.now += seconds
+        return fn
+
+
+def test_cpu_scale_multiplies_the_measured_cost():
+    clock = FakeClock()
+    cfg = BudgetConfig(mode="cpu", cpu_budget_s=1.0, cpu_scale=4.0)
+    ex = FrameExecutive(cfg, clock=clock)
+    ex.submit(Job(t=0.0, stages=(Stage("primary", clock.burn(0.1)),)))
+    report = ex.run_frame()
+    assert report.mode == "cpu" and report.budget == 1.0
+    assert abs(report.used - 0.4) < 1e-12 and abs(report.utilisation - 0.4) < 1e-12
+    assert abs(ex.stats.cpu_measured_s - 0.1) < 1e-12
+
+
+def test_admission_learns_the_cost_and_stops_overrunning():
+    """Stages of 3 ms against a 10 ms budget: once the cost is learned, exactly 3 run per frame
+    (a 4th would need 12 ms) and no frame overruns."""
+    clock = FakeClock()
+    cfg = BudgetConfig(mode="cpu", cpu_budget_s=0.010, cpu_scale=1.0)
+    ex = FrameExecutive(cfg, clock=clock)
+    for k in range(120):
+        ex.submit(Job(t=float(k), stages=(Stage("primary", clock.burn(0.003)),)))
+    result = ex.drain()
+    assert result.remaining_jobs == 0
+    per_frame = [r.processed for r in result.reports]
+    assert all(1 <= n <= 3 for n in per_frame)
+    assert per_frame[-10:-1] == [3] * 9
+    assert ex.stats.overruns == 0
+    mean, dev = ex.cost_estimates()["primary"]
+    assert abs(mean - 0.003) < 1e-9 and dev < 1e-4
+
+
+def test_slow_stage_beyond_its_estimate_is_an_overrun():
+    clock = FakeClock()
+    unit = 2.0**-10  # binary fractions: the fake clock adds them without rounding
+    cfg = BudgetConfig(mode="cpu", cpu_budget_s=8 * unit)
+    ex = FrameExecutive(cfg, clock=clock)
+    costs = [unit] * 20 + [32 * unit] + [unit] * 5
+    for k, c in enumerate(costs):
+        ex.submit(Job(t=float(k), stages=(Stage("filters", clock.burn(c)),)))
+    reports = ex.drain().reports
+    assert ex.stats.overruns == 1
+    (hit,) = [r for r in reports if r.utilisation > 1.0]
+    assert hit.used >= 32 * unit and hit.overruns == 1
+
+
+def burn_cpu(seconds):
+    """Spin until this thread has used ``seconds`` of CPU (bounded by wall time on a stalled host)."""
+    start = time.thread_time()
+    deadline = time.monotonic() + 50 * seconds + 1.0
+    x = 0
+    while time.thread_time() - start < seconds and time.monotonic() < deadline:
+        x += 1
+    return x
+
+
+def burning_run(cpu_scale, n_jobs=24, cost_s=0.002):
+    order = []
+    cfg = BudgetConfig(mode="cpu", cpu_budget_s=0.010, cpu_scale=cpu_scale)
+    ex = FrameExecutive(cfg)  # real time.thread_time
+    for k in range(n_jobs):
+        stages = tuple(
+            Stage(kind, (lambda kind=kind, k=k: (burn_cpu(cost_s), order.append((kind, k)))))
+            for kind in ("primary", "filters")
+        )
+        ex.submit(Job(t=float(k), stages=stages))
+    reports = ex.drain().reports
+    return ex, reports, order
+
+
+def test_real_cpu_burn_is_measured_and_budgeted():
+    ex, reports, order = burning_run(cpu_scale=1.0)
+    # each stage costs at least 2 ms of thread CPU, so at most 5 fit a 10 ms frame
+    assert all(1 <= r.processed <= 5 for r in reports)
+    assert sum(r.processed for r in reports) == 48 and ex.stats.jobs_completed == 24
+    assert len(reports) >= 48 // 5
+    assert all(r.used >= 0.002 * r.processed for r in reports)
+    assert reports[-1].backlog == 0 and max(r.backlog for r in reports) > 0
+    for kind in ("primary", "filters"):
+        ks = [k for kd, k in order if kd == kind]
+        assert ks == sorted(ks) and len(ks) == 24
+
+
+def test_real_cpu_burn_on_a_slower_processor_overruns_every_frame():
+    # charged >= 2 ms x 10 = 20 ms > 10 ms budget: one stage per frame, each an overrun
+    ex, reports, order = burning_run(cpu_scale=10.0, n_jobs=6)
+    assert [r.processed for r in reports] == [1] * 12
+    assert [r.overruns for r in reports] == list(range(1, 13))
+    assert all(r.utilisation >= 2.0 for r in reports)
+    assert len(order) == 12

@@ -1,0 +1,114 @@
+"""Log-domain Magill network: no underflow, agreement with the literal product form, lower bound."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from scipy.stats import multivariate_normal
+
+from fsw.gating import make_network
+from fsw.gating.magill import MagillParams, direct_product_weights, gaussian_log_likelihood
+from sim.scenarios import chaer_tracking as ct
+from test_chaer_bank import gaussian_loglik, make_records, run_bank
+
+
+def experiment_3(seed):
+    run = ct.experiment_3(np.random.default_rng(seed))
+    res, S = run_bank(run.z, ct.bank_parameters(3))
+    return run, res, S
+
+
+def test_log_likelihood_matches_scipy():
+    run, res, S = experiment_3(0)
+    rec = make_records(res[:3], S[:3], run.t[:3])[2]
+    ref = [multivariate_normal(mean=np.zeros(2), cov=S[2, i]).logpdf(res[2, i]) for i in range(5)]
+    np.testing.assert_allclose(gaussian_log_likelihood(rec), ref, rtol=1e-12)
+
+
+def test_million_measurements_without_underflow():
+    rng = np.random.default_rng(0)
+    K, n = 1_000_000, 2
+    scales = np.array([1.0, 1.3, 0.8])  # filter S = s I; the residuals really have covariance I
+    r2 = np.sum(rng.standard_normal((K, n)) ** 2, axis=1)
+    loglik = -0.5 * (r2[:, None] / scales + n * np.log(scales) + n * np.log(2 * np.pi))
+    _, dead = direct_product_weights(loglik[:2000])
+    assert dead is not None and dead < 1000  # the product form is long gone
+    net = make_network("magill", ("a", "b", "c"))
+    start = time.perf_counter()
+    W = net.update_block(loglik)
+    elapsed = time.perf_counter() - start
+    print(f"1e6 measurements: {elapsed:.2f} s, product form dies after {dead + 1}, final weights {W[-1]}")
+    assert np.all(np.isfinite(W)) and np.allclose(W.sum(axis=1), 1.0)
+    assert np.all(np.isfinite(net.log_weights))
+    assert W[-1, 0] == pytest.approx(1.0) and np.argmax(W[1000:], axis=1).min() == 0
+    assert elapsed < 10.0
+
+
+def test_floor_path_long_run():
+    rng = np.random.default_rng(1)
+    loglik = -0.5 * rng.chisquare(2, (20_000, 3)) * [1.0, 3.0, 5.0]
+    net = make_network("magill", ("a", "b", "c"), MagillParams(lower_bound=1e-3))
+    W = net.update_block(loglik)
+    assert np.all(np.isfinite(W)) and np.allclose(W.sum(axis=1), 1.0)
+    assert W.min() >= 1e-3 * (1 - 1e-9)
+
+
+@pytest.mark.parametrize("lower_bound", [None, 1e-3])
+def test_block_and_record_paths_agree(lower_bound):
+    run, res, S = experiment_3(2)
+    recs = make_records(res, S, run.t)
+    a = make_network("magill", recs[0].filters, MagillParams(lower_bound=lower_bound))
+    seq = np.array([a.update(r).weights for r in recs])
+    b = make_network("magill", recs[0].filters, MagillParams(lower_bound=lower_bound))
+    blk = b.update_block(gaussian_loglik(res, S))
+    np.testing.assert_allclose(seq, blk, rtol=1e-9, atol=1e-300)
+
+
+def test_matches_direct_product_before_it_underflows():
+    run, res, S = experiment_3(3)
+    recs = make_records(res[:120], S[:120], run.t[:120])
+    net = make_network("magill", recs[0].filters)
+    W = np.array([net.update(r).weights for r in recs])
+    # Independent: the literal product Π f of seed 003 eq. 7, normalised per eq. 8, with scipy densities.
+    dens = np.array([[multivariate_normal(np.zeros(2), S[k, i]).pdf(res[k, i]) for i in range(5)] for k in range(120)])
+    prod = np.cumprod(dens, axis=0) / 5
+    ref = prod / prod.sum(axis=1, keepdims=True)
+    np.testing.assert_allclose(W, ref, rtol=1e-8, atol=1e-250)
+
+
+def test_experiment_3_product_form_underflows_near_168_log_domain_does_not():
+    dead_at = []
+    for seed in range(10):
+        run, res, S = experiment_3(seed)
+        ll = gaussian_loglik(res, S)
+        weights, dead = direct_product_weights(ll)
+        assert dead is not None and np.all(np.isnan(weights[dead:]))
+        dead_at.append(dead + 1)  # 1-based measurement count
+        net = make_network("magill", tuple(f"KF{i}" for i in range(1, 6)))
+        W = np.array([net.update(r).weights for r in make_records(res, S, run.t)])
+        assert np.all(np.isfinite(W)) and np.allclose(W.sum(axis=1), 1.0)
+        assert np.argmax(W[90:100], axis=1).tolist() == [0] * 10
+    print(f"product form underflows after measurement {dead_at} (seed 003: 168)")
+    assert 120 <= min(dead_at) and max(dead_at) <= 200
+
+
+def first_switch(weights, seg_len=100):
+    """1-based delay, for each change k = 1..4, until the matching filter has the largest weight."""
+    out = []
+    for s in range(1, 5):
+        hit = np.flatnonzero(np.argmax(weights[s * seg_len:(s + 1) * seg_len], axis=1) == s)
+        out.append(int(hit[0]) + 1 if hit.size else None)
+    return out
+
+
+def test_lower_bound_lets_magill_switch():
+    run, res, S = experiment_3(4)
+    ll = gaussian_loglik(res, S)
+    plain = make_network("magill", tuple(f"KF{i}" for i in range(1, 6))).update_block(ll)
+    floored = make_network("magill", tuple(f"KF{i}" for i in range(1, 6)), {"lower_bound": 1e-3}).update_block(ll)
+    d_plain, d_floor = first_switch(plain), first_switch(floored)
+    print(f"Magill switch delays per change: no bound {d_plain}, bound 1e-3 {d_floor}")
+    assert all(d is not None for d in d_floor)
+    assert sum(d or 101 for d in d_floor) < sum(d or 101 for d in d_plain)

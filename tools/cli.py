@@ -1,0 +1,60 @@
+"""``navbank``: the command-line entry point.
+
+Each subcommand lives in its own module under :mod:`tools.commands` exposing ``NAME``, ``HELP``,
+``add_arguments(parser)`` and ``run(args) -> int``. Configuration errors become one line on
+stderr and exit code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from fsw.interface.yamlconfig import ConfigError
+
+#: Subcommand modules, in the order ``navbank --help`` lists them.
+COMMANDS = (
+    "tools.commands.validate",
+    "tools.commands.scenarios",
+)
+
+
+class UsageError(Exception):
+    """A bad command-line value: reported as one line, exit code 2."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="navbank",
+        description="Flight-software-in-the-loop simulator for autonomous deep-space navigation "
+        "with filter-bank anomaly detection.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for module_name in COMMANDS:
+        module = importlib.import_module(module_name)
+        p = sub.add_parser(module.NAME, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP),
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        module.add_arguments(p)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except (ConfigError, UsageError) as exc:
+        print(f"navbank {args.command}: {exc}" if isinstance(exc, UsageError) else str(exc), file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"navbank {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
