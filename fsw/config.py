@@ -77,10 +77,11 @@ class DetectorSection:
 class TelemetryConfig:
     """How often the FSW publishes what (simulated time)."""
 
-    estimate_every_s: float = spec(3600.0, doc="cadence of Estimate messages (combined, best, per filter)", unit="s", gt=0)
+    estimate_every_s: float = spec(3600.0, doc="cadence of Estimate messages (combined, best, per filter), on a grid from the initial epoch", unit="s", gt=0)
     per_filter_estimates: bool = spec(True, doc="also publish each filter's estimate")
     full_covariance: bool = spec(False, doc="include the full covariance in Estimate messages")
     anomaly_every_s: float = spec(6 * 3600.0, doc="periodic AnomalyReport cadence (also sent on every change)", unit="s", gt=0)
+    idle_budget_every_s: float = spec(3600.0, doc="BudgetReport cadence for frames with nothing to do", unit="s", gt=0)
     status_every_s: float = spec(86400.0, doc="periodic RunStatus (counters) cadence", unit="s", gt=0)
 
 

@@ -61,7 +61,8 @@ def test_leap_second_is_counted():
 
 
 def test_bad_input_is_rejected():
-    for bad in ["2018-13-01T00:00:00", "2018-02-30T00:00:00", "yesterday", "2018-11-26T25:00:00"]:
+    for bad in ["2018-13-01T00:00:00", "2018-02-30T00:00:00", "yesterday", "2018-11-26T25:00:00",
+                "2018-11-26T23:59:60"]:
         with pytest.raises(ts.TimeError):
             ts.utc_iso_to_tdb(bad)
     with pytest.raises(ts.TimeError):

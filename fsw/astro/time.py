@@ -197,6 +197,10 @@ def parse_iso(s: str) -> tuple[int, int, int, int, int, int, float]:
         raise TimeError(f"invalid calendar date in {s!r}")
     if hh > 23 or mm > 59 or ss > 60:
         raise TimeError(f"invalid time of day in {s!r}")
+    if ss == 60:
+        next_day = civil_from_days(days_from_civil(y, mo, d) + 1)
+        if (hh, mm) != (23, 59) or next_day not in {day for day, _ in LEAP_SECONDS}:
+            raise TimeError(f"{s!r}: second 60 exists only at 23:59 before a leap second")
     return y, mo, d, hh, mm, ss, frac
 
 

@@ -153,6 +153,9 @@ class EKFStack:
             k = f.clock.components
             self.clock_q[i, :k] = (f.clock.q_white_fm_s, f.clock.q_random_walk_fm_per_s, f.clock.q_random_run_per_s3)[:k]
         self.snc_psd = np.array([f.velocity_noise_psd_km2_s3 for f in cfgs])
+        # the last propagation leg (t0, t1, [r, v](t0), Y): a Doppler count interval that is
+        # exactly this leg reuses it instead of propagating back
+        self._last_leg: tuple[float, float, np.ndarray, np.ndarray] | None = None
         self.maneuvers = sorted(config.maneuvers, key=lambda m: m.epoch_tdb_s)
 
     # -- propagation ----------------------------------------------------------------------------
@@ -199,7 +202,9 @@ class EKFStack:
         h = t1 - self.t
         if h == 0.0:
             return
+        z0 = self.x[:, 0:6].copy()
         r1, v1, Y = self.propagator.propagate(self.t, t1, self.x[:, 0:3], self.x[:, 3:6], self.drivers())
+        self._last_leg = (self.t, t1, z0, Y)
         Phi = self.transition(Y, h)
         x = self.x.copy()
         x[:, 0:3], x[:, 3:6] = r1, v1
@@ -220,6 +225,7 @@ class EKFStack:
         return sorted(events)
 
     def _apply_events(self, t: float) -> None:
+        self._last_leg = None
         for b in self.batched:
             m, q = b.factors(t)
             if np.any(q > 0.0) or np.any(m != 1.0):
@@ -248,6 +254,21 @@ class EKFStack:
             return np.zeros(x.shape[0])
         return x[:, L.slices["clock"].start + k]
 
+    def _count_start(self, t: float, count_s: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """[r, v] at t − T and its sensitivity to [r, v, q] at t.
+
+        If the last propagation leg ran exactly from t − T to the current state, its start is
+        the back-propagated state (to integration error) and Φ_zz⁻¹ [I, −Ψ] its sensitivity;
+        otherwise the state is propagated back by T.
+        """
+        leg = self._last_leg
+        if leg is not None and x is self.x and leg[1] == self.t == t and abs(leg[0] - (t - count_s)) < 1e-6:
+            _, _, z0, Y = leg
+            inv = np.linalg.inv(Y[:, :, :6])
+            Yb = np.concatenate([inv, -inv @ Y[:, :, 6:]], axis=2)
+            return z0[:, 0:3], z0[:, 3:6], Yb
+        return self.propagator.propagate(t, t - count_s, x[:, 0:3], x[:, 3:6], self.drivers(x))
+
     def predict_range(self, station: str, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """h (N, 1) and H (N, 1, n) of one-way range (see :mod:`fsw.models.radiometric`)."""
         L = self.layout
@@ -272,7 +293,7 @@ class EKFStack:
         delta = self._clock(x, 0)
         freq = self._clock(x, 1)
         drift = self._clock(x, 2)
-        r_s, v_s, Yb = self.propagator.propagate(t, t - count_s, x[:, 0:3], x[:, 3:6], self.drivers(x))
+        r_s, v_s, Yb = self._count_start(t, count_s, x)
         end = uplink(self.env, station, t, x[:, 0:3], x[:, 3:6], delta)
         start = uplink(self.env, station, t - count_s, r_s, v_s, delta)
         h = (end.rho - start.rho) / count_s + C_KM_S * (freq - 0.5 * drift * count_s)
@@ -320,6 +341,8 @@ class EKFStack:
         processed = does if processed is None else processed
         x_new = -PX[:, :, n]
         P_new = kalman.symmetrise(PX[:, :, :n])
+        if processed.any():
+            self._last_leg = None
         self.x = np.where(processed[:, None], x_new, self.x)
         self.P = np.where(processed[:, None, None], P_new, self.P)
         return res.copy(), S.copy(), chi2, processed

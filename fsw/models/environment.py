@@ -29,6 +29,7 @@ from fsw.astro.ephemeris import Ephemeris, EphemerisTable, default_ephemeris
 from fsw.astro.moons import MOONS, moon_state
 from fsw.astro.earth import itrs_to_gcrs_matrix
 from fsw.astro.stations import StationError, station, station_state_icrf
+from fsw.models.vector import cross
 
 #: Bodies of the table, in row order.
 TABLE_BODIES: tuple[str, ...] = ("sun", "emb", "jupiter", "earth", "mars")
@@ -94,15 +95,19 @@ class Environment:
     def station_gcrs(self, name: str, t: np.ndarray, t_ref: float) -> tuple[np.ndarray, np.ndarray]:
         """Geocentric position and velocity of a station at times ``t_ref + t`` (offsets (k,))."""
         t_grid = round(t_ref / _STATION_GRID_S) * _STATION_GRID_S
-        r0, _, k = self._station_node(name, t_grid)
-        theta = OMEGA_EARTH_RAD_S * ((t_ref - t_grid) + np.asarray(t, dtype=float))[..., None]
+        r0, v0, k = self._station_node(name, t_grid)
+        dt = ((t_ref - t_grid) + np.asarray(t, dtype=float))[..., None]
+        theta = OMEGA_EARTH_RAD_S * dt
+        # what the rotation about k does not explain (pole motion, rate terms, ~1e-8 km/s)
+        # is carried as a constant velocity
+        dv = v0 - OMEGA_EARTH_RAD_S * cross(k, r0)
         c, s = np.cos(theta), np.sin(theta)
 
         def rotate(x: np.ndarray) -> np.ndarray:
-            return x * c + np.cross(k, x) * s + k * float(k @ x) * (1.0 - c)
+            return x * c + cross(k, x) * s + k * float(k @ x) * (1.0 - c)
 
         r = rotate(r0)
-        return r, OMEGA_EARTH_RAD_S * np.cross(k, r)  # the exact rate of the rotated position
+        return r + dv * dt, OMEGA_EARTH_RAD_S * cross(k, r) + dv  # exact rate of the position
 
     # -- optical targets ----------------------------------------------------------------------
     @staticmethod

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fsw.models.vector import cross
 from fsw.astro.constants import AU_KM, GM_EARTH_MOON, GM_JUPITER_SYSTEM, GM_MARS, GM_SUN, P_SUN_1AU_N_M2
 
 GM_THIRD = np.array([GM_SUN, GM_EARTH_MOON, GM_JUPITER_SYSTEM])
@@ -49,14 +50,6 @@ class ForceParameters:
         return 2 + (0 if self.poly_degree is None else 3 * (self.poly_degree + 1))
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
-
-
 def cruise_frame(r: np.ndarray, r_sun: np.ndarray, r_earth: np.ndarray) -> np.ndarray:
     """(N, 3, 3) columns = cruise body x, y, z in ICRF."""
     z = r_sun - r
@@ -64,7 +57,7 @@ def cruise_frame(r: np.ndarray, r_sun: np.ndarray, r_earth: np.ndarray) -> np.nd
     e = r_earth - r
     x = e - np.sum(e * z, axis=-1, keepdims=True) * z
     x /= np.linalg.norm(x, axis=-1, keepdims=True)
-    return np.stack([x, _cross(z, x), z], axis=-1)
+    return np.stack([x, cross(z, x), z], axis=-1)
 
 
 def acs_direction_icrf(r: np.ndarray, bodies: np.ndarray, params: ForceParameters) -> np.ndarray:

@@ -39,6 +39,7 @@ import numpy as np
 
 from fsw.astro.constants import C_KM_S, GM_SUN, OMEGA_EARTH_RAD_S
 from fsw.models.environment import EARTH, MARS, SUN, Environment
+from fsw.models.vector import cross
 
 
 @dataclass(frozen=True)
@@ -61,11 +62,14 @@ def uplink(env: Environment, station: str, t_tag: float, r: np.ndarray, v: np.nd
     # second-order expansion about it (|Δt| ~ 0.1 s: error < 1e-7 km).
     tau_guess = float(np.linalg.norm(r_sc.mean(axis=0) - pos[EARTH])) / C_KM_S
     t_g = t_tag - tau_guess
+    # t_g is rounded to the ~1e-7 s resolution of epochs near 6e8 s (Earth moves 3 mm in
+    # that); offsets are taken from the stored t_g exactly so every filter uses one expansion
+    tau_guess = t_tag - t_g
     pos_g, vel_g = env.states_ssb(t_g)
     s_pos, s_vel = env.station_gcrs(station, np.zeros(1), t_g)
     e_rel = pos_g[EARTH] - pos_g[SUN]
     a_earth = -GM_SUN * e_rel / float(e_rel @ e_rel) ** 1.5
-    a_station = np.cross(np.array([0.0, 0.0, OMEGA_EARTH_RAD_S]), s_vel[0])
+    a_station = cross(np.array([0.0, 0.0, OMEGA_EARTH_RAD_S]), s_vel[0])
     R0 = pos_g[EARTH] + s_pos[0]
     V0 = vel_g[EARTH] + s_vel[0]
     A0 = a_earth + a_station
