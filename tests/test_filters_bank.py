@@ -191,3 +191,13 @@ def test_ecrv_batch_step_matches_seed_000_eq_25_26(run):
     m = np.exp(-86400.0 / (7 * 86400.0))
     assert bank.stack.x[0, s] == pytest.approx(0.02 * m)
     assert bank.stack.P[0, s, s] == pytest.approx(m * m * p_before + 0.03**2 * (1 - m * m))
+
+
+def test_ekf_covariances_stay_spd_along_a_stream():
+    long_run = make_run(span_days=6.0, max_measurements=1500, env=ENV, seed=4)
+    bank = FilterBank(preset("acs-q"), long_run.t0, long_run.position_km + 30.0, long_run.velocity_km_s, env=ENV)
+    for m in long_run.measurements:
+        bank.process(m)
+        for P in bank.stack.P:
+            assert is_spd(P)
+    assert bank.processed_count == 1500

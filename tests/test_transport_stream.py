@@ -128,9 +128,10 @@ def test_close_handshake_loses_nothing_at_the_tail():
 
 @pytest.mark.slow
 def test_credit_window_survives_a_consumer_stall_longer_than_block_timeout():
-    # The consumer stops reading for 7 s (> the 5 s after which BLOCK closes the link). With a
-    # credit window smaller than the consumer's FIFO the producer waits instead.
-    n = 5_000
+    # The consumer stops reading for 7 s (> the 5 s after which BLOCK closes the link). Without
+    # credit, 20k messages overflow the FIFO and socket buffers (measured: of 30k, 10.5k arrived and
+    # the link never came back). With a credit window smaller than the FIFO the producer waits.
+    n = 20_000
     prod, cons = _run_pair(n, window=500, stall_after=1_000, stall_s=7.0, capacity=1_000)
     assert prod["acked"] == {"fsw": True}
     assert prod["waits"] >= 1

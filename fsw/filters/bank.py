@@ -66,6 +66,10 @@ class FilterBank:
     """A bank of extended Kalman filters (see the module docstring)."""
 
     KINDS: tuple[str, ...] = FILTER_KINDS
+    #: Time tags may run backwards by this much (onboard-clock jitter between measurements,
+    #: a first measurement tagged a clock error before the initial epoch); such a measurement
+    #: is processed at the bank epoch (≤ 0.5 m of motion). Anything earlier is refused.
+    TIME_TOLERANCE_S = 1e-4
 
     def __init__(self, config: BankConfig, t0: float, position_km: Any, velocity_km_s: Any,
                  env: Environment | None = None):
@@ -172,7 +176,7 @@ class FilterBank:
     def _screen(self, meas: Any) -> tuple[np.ndarray, np.ndarray]:
         value, sigma = screen(meas, self.KINDS, MEASUREMENT_DIMENSION)
         t = float(meas.t_s)
-        if t < self.t:
+        if t < self.t - self.TIME_TOLERANCE_S:
             raise MeasurementRejected("out_of_order", f"time tag {t} is before the bank epoch {self.t}")
         try:
             self.stack.env.states_ssb(t)
@@ -208,7 +212,7 @@ class FilterBank:
         """h (N, m) and H (N, m, n) of a (screened) measurement at the current bank epoch."""
         st = self.stack
         x = st.x if x is None else x
-        t = float(meas.t_s)
+        t = st.t
         if meas.kind == "range":
             return st.predict_range(meas.source, t, x)
         if meas.kind == "doppler":
@@ -223,7 +227,7 @@ class FilterBank:
         except MeasurementRejected as exc:
             self.rejected[exc.reason] += 1
             raise
-        self.stack.propagate_to(float(meas.t_s))
+        self.stack.propagate_to(max(float(meas.t_s), self.t))
         try:
             h, H = self.predict(meas)
         except GeometryError as exc:

@@ -117,4 +117,5 @@ def dump_yaml(obj: Any, drop_defaults: bool = True) -> str:
     """YAML text of a config object; with ``drop_defaults`` only what differs from the defaults."""
     if not dataclasses.is_dataclass(obj):
         raise TypeError("dump_yaml expects a dataclass instance")
-    return yaml.safe_dump(encode(obj, drop_defaults=drop_defaults), sort_keys=False, default_flow_style=None, width=100)
+    return yaml.safe_dump(encode(obj, drop_defaults=drop_defaults), sort_keys=False, default_flow_style=None, width=100,
+                          allow_unicode=True)

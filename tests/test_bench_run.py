@@ -1,0 +1,32 @@
+"""``navbank bench`` output: one JSON object per line with the fields the CLI documents."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import pytest
+
+from tools.bench import run_benchmarks
+
+
+def test_quick_benchmarks_print_json_lines():
+    buf = io.StringIO()
+    results = run_benchmarks(json=True, quick=True, out=buf)
+    lines = [json.loads(line) for line in buf.getvalue().splitlines()]
+    assert [r["name"] for r in lines] == ["linear-bank", "ekf-bank-3", "ekf-bank-6"]
+    for r in lines:
+        assert {"name", "ours", "reference", "unit", "ratio"} <= set(r)
+        assert r["ours"] > 0 and r["reference"] > 0
+        assert r["ratio"] == pytest.approx(r["reference"] / r["ours"])
+    assert lines == json.loads(json.dumps(results))
+    assert lines[0]["filters"] == 6 and lines[0]["states"] == 15 and lines[0]["measurement_dim"] == 2
+    # stacking the filters must beat running them one by one by a wide margin
+    assert lines[0]["ratio"] > 2.0
+
+
+def test_text_output_has_one_line_per_benchmark():
+    buf = io.StringIO()
+    run_benchmarks(json=False, quick=True, out=buf)
+    text = buf.getvalue().splitlines()
+    assert len(text) == 3 and text[0].startswith("linear-bank") and "ratio" in text[0]

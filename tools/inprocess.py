@@ -1,0 +1,68 @@
+"""One run with the simulator and the FSW wired directly, without Zenoh (campaigns, tests, replay).
+
+It runs exactly the code the processes run — ``sim.stream.generate`` for the simulator and
+``fsw.core.FswCore`` for the flight software — so in deterministic (work-unit) budget mode its
+FSW outputs are identical to those of ``navbank run`` for the same scenario, fault and seed.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from fsw.core import FswCore, stamp
+from fsw.interface import messages as m, topics
+from sim.stream import SimRun, generate
+from tools.scenario import ScenarioConfig, resolve
+from tools.summary import summarize
+
+
+@dataclass
+class RunResult:
+    config: ScenarioConfig
+    seed: int
+    messages: list[tuple[str, Any]] = field(default_factory=list)
+    summary: dict = field(default_factory=dict)
+    sim: SimRun | None = None
+
+    def topic(self, name: str) -> list:
+        name = name.strip("/")
+        return [msg for t, msg in self.messages if t == name]
+
+
+def sim_status(run: SimRun, run_id: str, state: str) -> m.RunStatus:
+    t = run.t_end if state == "end-of-run" else run.t_start
+    return m.RunStatus(t_s=t, timestamp=stamp(t), run_id=run_id, source="sim", state=state,
+                       counts={"measurements": len(run.measurements), "truth": len(run.truth),
+                               "fault_events": len(run.fault_events)})
+
+
+def run_in_process(cfg: ScenarioConfig, seed: int | None = None, *, fault_label: str | None = None,
+                   run_id: str = "inprocess", progress: Callable[[float], None] | None = None,
+                   keep_sim: bool = False) -> RunResult:
+    """Simulate and fly one run in this process; returns all messages and the summary."""
+    wall0 = time.perf_counter()
+    resolved, seed = resolve(cfg, seed)
+    run = generate(resolved.sim, seed=seed)
+    result = RunResult(config=resolved, seed=seed, sim=run if keep_sim else None)
+    out = result.messages
+    core = FswCore(resolved.fsw, lambda topic, msg: out.append((topic, msg)), run_id=run_id)
+    out.append((topics.SIM_STATUS, sim_status(run, run_id, "start")))
+    core.start()
+    n = max(len(run.measurements), 1)
+    done = 0
+    for topic, msg in run.iter_messages():
+        out.append((topic, msg))
+        if topic == topics.SIM_MEASUREMENTS:
+            core.ingest(msg)
+            done += 1
+            if progress is not None and done % 500 == 0:
+                progress(done / n)
+    out.append((topics.SIM_STATUS, sim_status(run, run_id, "end-of-run")))
+    core.finish()
+    if progress is not None:
+        progress(1.0)
+    result.summary = summarize(out, scenario=resolved.name, seed=seed, fault=fault_label, t0=run.t_start,
+                               wall_time_s=time.perf_counter() - wall0)
+    return result
