@@ -283,8 +283,24 @@ class FswCore:
     def start(self) -> None:
         self._emit_status("start", self.t0)
 
-    def finish(self) -> None:
-        """End of stream: release waiting measurements, drain the backlog, final telemetry."""
+    @property
+    def t_last(self) -> float:
+        """Epoch of the newest measurement handled (the initial epoch before any)."""
+        return self._last_t
+
+    def end_status(self, extra_counts: dict[str, int] | None = None) -> m.RunStatus:
+        """The end-of-run RunStatus (``extra_counts``: e.g. per-topic counts of a transport)."""
+        counts = self.status_counts()
+        counts.update(extra_counts or {})
+        t = self._last_t
+        return m.RunStatus(t_s=float(t), timestamp=stamp(t), run_id=self.run_id, source="fsw",
+                           state="end-of-run", counts=counts)
+
+    def finish(self, emit_end: bool = True) -> None:
+        """End of stream: release waiting measurements, drain the backlog, final telemetry.
+
+        ``emit_end=False`` leaves the end-of-run status to the caller (a transport adds its
+        per-topic counts to it, see :meth:`end_status`)."""
         if self.finished:
             return
         for meas in self.guard.flush():
@@ -306,7 +322,9 @@ class FswCore:
         self._emit_estimates(t_end)
         if self.detector is not None:
             self._maybe_emit_anomaly(self.detector.state, force=True, t=t_end)
-        self._emit_status("end-of-run", t_end)
+        self._last_t = t_end
+        if emit_end:
+            self._emit(topics.FSW_STATUS, self.end_status())
         self.finished = True
 
     # -- telecommands --------------------------------------------------------------------------

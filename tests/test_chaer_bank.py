@@ -134,3 +134,60 @@ def test_bank_matches_filterpy():
             kf.update(run.z[k].reshape(2, 1))
             np.testing.assert_allclose(res[k, i], kf.y.ravel(), rtol=1e-9, atol=1e-9)
             np.testing.assert_allclose(S[k, i], kf.S, rtol=1e-9, atol=1e-9)
+
+
+def expected_log_likelihood(filt, truth) -> float:
+    """E[ln N(r; 0, S)] per measurement for a steady-state KF with parameters ``filt`` on data
+    with noise ``truth`` (α = [q1 q2 r1 r2]): S from the discrete Riccati equation, the actual
+    innovation covariance C from the Lyapunov equation of the filter's error dynamics."""
+    from scipy.linalg import solve_discrete_are, solve_discrete_lyapunov
+
+    F, H = np.asarray(ct.TRANSITION), np.asarray(ct.MEASUREMENT_MATRIX)
+    P = solve_discrete_are(F.T, H.T, np.diag(filt[:2]), np.diag(filt[2:]))
+    S = H @ P @ H.T + np.diag(filt[2:])
+    K = P @ H.T @ np.linalg.inv(S)
+    A = F @ (np.eye(2) - K @ H)
+    E = solve_discrete_lyapunov(A, F @ K @ np.diag(truth[2:]) @ K.T @ F.T + np.diag(truth[:2]))
+    C = H @ E @ H.T + np.diag(truth[2:])
+    return float(-0.5 * (np.trace(np.linalg.solve(S, C)) + np.linalg.slogdet(S)[1] + 2 * np.log(2 * np.pi)))
+
+
+def test_separations_between_filters_analytic_and_monte_carlo():
+    # The numbers the scenario docstring quotes: how far (nat per measurement) the matching filter
+    # is ahead of the others, from the steady-state equations, checked by simulation.
+    table3 = np.asarray(ct.TABLE_III)
+    ell = np.array([[expected_log_likelihood(f, t) for f in table3] for t in table3])  # [truth, filter]
+    gaps = [np.sort(row)[-1] - np.sort(row)[-2] for row in ell]
+    assert [int(np.argmax(row)) for row in ell] == [0, 1, 2, 3, 4]
+    np.testing.assert_allclose(gaps, [1.055, 0.331, 0.477, 0.307, 0.566], atol=2e-3)
+    assert ell[1, 1] - ell[1, 0] == pytest.approx(5.67, abs=0.01)
+    table1 = np.asarray(ct.TABLE_I)
+    ell1 = [expected_log_likelihood(f, np.asarray(ct.TABLE_I_TRUTH)) for f in table1]
+    ell2 = [expected_log_likelihood(f, np.asarray(ct.TABLE_II_TRUTH)) for f in np.asarray(ct.TABLE_II)]
+    assert np.argmax(ell1) == 2 and np.argmax(ell2) == 2
+    assert ell1[2] - ell1[3] == pytest.approx(0.033, abs=2e-3)
+    assert ell2[2] - ell2[3] == pytest.approx(0.023, abs=2e-3)
+    assert max(ell1[2] - ell1[i] for i in (1, 3, 4)) < 0.06
+    # Monte Carlo: the bank's mean log-likelihood on long stationary runs (start-up dropped).
+    for s in (0, 2, 4):
+        run = ct.generate([table3[s]], 20000, np.random.default_rng(10 + s))
+        res, S = run_bank(run.z, table3)
+        mc = gaussian_loglik(res, S)[100:].mean(axis=0)
+        # A badly mismatched filter has a heavy-tailed chi-square: relative tolerance for it.
+        np.testing.assert_allclose(mc, ell[s], rtol=0.01, atol=0.03)
+        np.testing.assert_allclose(mc - mc[s], ell[s] - ell[s, s], rtol=0.01, atol=0.03)
+
+
+def test_switch_delays_rules():
+    W = np.full((300, 3), 0.1)
+    W[:100, 0] = 0.8
+    W[100:104, 0] = [0.79, 0.75, 0.7, 0.2]      # falls below 0.9 × 0.8 at the 3rd measurement
+    W[104:200, 1] = 0.8                          # filter 1 on top from the 5th
+    W[200:, 1] = 0.8                             # filter 2 never on top in the last segment
+    W[100:104, 1] = [0.1, 0.1, 0.1, 0.7]
+    np.testing.assert_array_equal(ct.switch_delays(W, rule="top"), [4, 101])
+    np.testing.assert_array_equal(ct.switch_delays(W, rule="onset"), [3, 101])
+    with pytest.raises(ValueError):
+        ct.switch_delays(W[:150])
+    with pytest.raises(ValueError):
+        ct.switch_delays(W, rule="bogus")

@@ -69,5 +69,7 @@ def test_progress_reports_taken_counts_and_completeness():
         reply = T.query_progress(s, RUN, "fsw", end)
         assert reply.counts == {"sim/measurements": 5, "sim/status": 1, T.COMPLETE: 1}
         assert sub.acknowledged == {"sim": True}
+        assert sub.wait_acknowledged(["sim"], timeout_s=0.1, linger_s=0.0)
+        assert not sub.wait_acknowledged(["sim", "replay"], timeout_s=0.1, linger_s=0.0)
         assert T.drain(s, RUN, end, ["fsw"], timeout_s=2) == {"fsw": True}
         assert T.drain(s, RUN, end, ["nobody"], timeout_s=0.3) == {"nobody": False}

@@ -16,8 +16,12 @@ from fsw.interface.yamlconfig import ConfigError
 
 #: Subcommand modules, in the order ``navbank --help`` lists them.
 COMMANDS = (
+    "tools.commands.run",
     "tools.commands.validate",
     "tools.commands.scenarios",
+    "tools.commands.sim",
+    "tools.commands.fsw",
+    "tools.commands.ground",
 )
 
 

@@ -22,9 +22,9 @@ import numpy as np
 
 
 def augmented_joint(x: np.ndarray, P: np.ndarray, H: np.ndarray, R: np.ndarray, residual: np.ndarray) -> np.ndarray:
-    """The augmented joint prior M̃ = [[P̄, P̄Hᵀ, −x̄], [HP̄, S, z̄]], shape (N, n+m, n+m+1).
+    """The augmented joint prior M̃ = [[P̄, −x̄, P̄Hᵀ], [HP̄, z̄, S]], shape (N, n+m, n+1+m).
 
-    The last column rides along through the update so that the same products that give
+    The state column rides along through the update so that the same products that give
     the Joseph covariance also give the updated state (see :func:`update`).
     """
     N, n, _ = P.shape
@@ -32,11 +32,13 @@ def augmented_joint(x: np.ndarray, P: np.ndarray, H: np.ndarray, R: np.ndarray, 
     B = np.empty((N, n + m, n))
     B[:, :n, :] = np.eye(n)
     B[:, n:, :] = H
-    Mt = np.empty((N, n + m, n + m + 1))
-    Mt[:, :, : n + m] = B @ P @ B.transpose(0, 2, 1)
-    Mt[:, n:, n : n + m] += R
-    Mt[:, :n, -1] = -x
-    Mt[:, n:, -1] = residual
+    M = B @ P @ B.transpose(0, 2, 1)
+    Mt = np.empty((N, n + m, n + 1 + m))
+    Mt[:, :, :n] = M[:, :, :n]
+    Mt[:, :, n + 1 :] = M[:, :, n:]
+    Mt[:, n:, n + 1 :] += R
+    Mt[:, :n, n] = -x
+    Mt[:, n:, n] = residual
     return Mt
 
 
@@ -66,43 +68,42 @@ def update(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """One batched measurement update of N filters with n states from their augmented joint prior.
 
-    ``Mt`` is [[P̄, P̄Hᵀ, −x̄], [HP̄, S, z̄]] (N, n+m, n+m+1), see :func:`augmented_joint`.
+    ``Mt`` is [[P̄, −x̄, P̄Hᵀ], [HP̄, z̄, S]] (N, n+m, n+1+m), see :func:`augmented_joint`.
     ``processes`` (N,) says which filters update with this measurement (None: all);
     ``gate`` (N,) is the measurement-editing threshold on the chi-square (None: no editing).
 
-    G = S⁻¹ M̃_bottom = [Kᵀ, I, S⁻¹z̄] gives the gain and the chi-square at once. With
-    L = [I, −K]: L M̃ = M̃_top − P̄Hᵀ G = [L M | −(x̄ + K z̄)], and the Joseph covariance is
-    (L M) Lᵀ = (L M)_left − (L M)_right Kᵀ — the products of the congruence with L's identity
-    block done exactly.
+    G = S⁻¹ M̃_bottom = [Kᵀ, S⁻¹z̄, I] gives the gain and the chi-square at once. With
+    L = [I, −K]:  L M̃ = M̃_top − P̄Hᵀ G = [L M_left, −(x̄ + K z̄), L M_right], and the Joseph
+    covariance is (L M) Lᵀ = (L M)_left − (L M)_right Kᵀ — the products of the congruence with
+    L's identity block done exactly. (L M)_right = P̄Hᵀ − K S vanishes in exact arithmetic, so
+    subtracting (L M)_right G from the state column as well changes it by rounding only, and
+    [P⁺ | −x⁺] comes out of one subtraction.
 
     Returns (PX⁺, z̄, S, chi2, processed) where PX⁺ = [P⁺ | −x⁺] (N, n, n+1), P⁺ not
     symmetrised (see :func:`symmetrise`); z̄ and S are views into ``Mt``; processed is None
     when every filter processed. Filters that do not process keep x̄ and P̄ (zero gain) but
     still get their z̄, S and chi-square, which the gating networks need.
     """
-    N, nm, _ = Mt.shape
-    S = Mt[:, n:, n:nm]
+    nm = Mt.shape[1]
+    S = Mt[:, n:, n + 1 :]
     bottom = Mt[:, n:, :]
     if nm - n == 2:  # Cramer's rule: a LAPACK call costs more than the whole 2×2 inverse
         adj = S[:, ::-1, ::-1] * _COFACTOR_SIGNS
-        det = np.vecdot(S[:, 0, :], adj[:, :, 0])  # first row of S times first column of adj(S)
-        adj /= det[:, None, None]
+        adj /= np.vecdot(S[:, 0, :], adj[:, :, 0])[:, None, None]  # det = first row · adj column
         G = adj @ bottom
     elif nm - n == 1:
         G = bottom / S
     else:
         G = np.linalg.solve(S, bottom)
-    residual = Mt[:, n:, -1]
-    chi2 = np.vecdot(residual, G[:, :, -1])
+    residual = Mt[:, n:, n]
+    chi2 = np.vecdot(residual, G[:, :, n])
     does = processes
     if gate is not None:
         does = chi2 <= gate if processes is None else processes & (chi2 <= gate)
     if does is not None:
         G *= does[:, None, None]
-    LM = Mt[:, :n, :] - Mt[:, :n, n:nm] @ G
-    PX = np.empty((N, n, n + 1))
-    np.subtract(LM[:, :, :n], LM[:, :, n:nm] @ G[:, :, :n], out=PX[:, :, :n])
-    PX[:, :, n] = LM[:, :, -1]
+    LM = Mt[:, :n, :] - Mt[:, :n, n + 1 :] @ G
+    PX = LM[:, :, : n + 1] - LM[:, :, n + 1 :] @ G[:, :, : n + 1]
     return PX, residual, S, chi2, does
 
 

@@ -141,33 +141,38 @@ class LinearFilterBank:
     def _rebuild(self) -> None:
         """Precompute the products of one predict-plus-update.
 
-        With A = [F; HF] and C = [[Q, QHᵀ], [HQ, HQHᵀ + R]], the joint prior of the predicted
-        state and measurement is M = A P Aᵀ + C; with [P | x] as operand, A [P | x] Ã, Ã =
-        diag(Aᵀ, 1), gives [A P Aᵀ | A x] in two batched products (x̄ and ŷ = H x̄ included).
-        B = [I; H], D = diag(0, R) play the same roles for an update without predict.
+        With A = [F; HF], the joint prior of the predicted state and measurement is
+        A P Aᵀ + [[Q, QHᵀ], [HQ, HQHᵀ + R]]. Taking [P | −x] as operand and
+        Ã = [[Fᵀ, 0, (HF)ᵀ], [0, 1, 0]], A [P | −x] Ã + C gives the augmented joint prior
+        [[P̄, −x̄, P̄Hᵀ], [HP̄, −ŷ, S]] of :func:`kalman.update` in two batched products (the
+        measurement is then added to the ŷ column). B = [I; H], B̃, D play the same roles for
+        an update without predict.
         """
         N, n, _ = self.F.shape
         m = self.H.shape[1]
         HF = self.H @ self.F
         QHt = self.Q @ self.H.transpose(0, 2, 1)
+        eye = np.broadcast_to(np.eye(n), (N, n, n))
         self._A = np.concatenate([self.F, HF], axis=1)
-        self._B = np.concatenate([np.broadcast_to(np.eye(n), (N, n, n)), self.H], axis=1)
-        self._At = self._augment_transpose(self._A)
-        self._Bt = self._augment_transpose(self._B)
-        self._C = np.zeros((N, n + m, n + m + 1))
+        self._B = np.concatenate([eye, self.H], axis=1)
+        self._At = self._augment(self.F, HF)
+        self._Bt = self._augment(eye, self.H)
+        self._C = np.zeros((N, n + m, n + 1 + m))
         self._C[:, :n, :n] = self.Q
-        self._C[:, :n, n:-1] = QHt
+        self._C[:, :n, n + 1 :] = QHt
         self._C[:, n:, :n] = QHt.transpose(0, 2, 1)
-        self._C[:, n:, n:-1] = self.H @ QHt + self.R
-        self._D = np.zeros((N, n + m, n + m + 1))
-        self._D[:, n:, n:-1] = self.R
+        self._C[:, n:, n + 1 :] = self.H @ QHt + self.R
+        self._D = np.zeros((N, n + m, n + 1 + m))
+        self._D[:, n:, n + 1 :] = self.R
 
     @staticmethod
-    def _augment_transpose(A: np.ndarray) -> np.ndarray:
-        N, k, n = A.shape
-        out = np.zeros((N, n + 1, k + 1))
-        out[:, :n, :k] = A.transpose(0, 2, 1)
-        out[:, n, k] = 1.0
+    def _augment(F: np.ndarray, HF: np.ndarray) -> np.ndarray:
+        N, n, _ = F.shape
+        m = HF.shape[1]
+        out = np.zeros((N, n + 1, n + 1 + m))
+        out[:, :n, :n] = F.transpose(0, 2, 1)
+        out[:, :n, n + 1 :] = HF.transpose(0, 2, 1)
+        out[:, n, n] = 1.0
         return out
 
     def predict(self) -> None:
@@ -208,7 +213,7 @@ class LinearFilterBank:
             A, At, C, PX = A[a], At[a], C[a], PX[a]
         Mt = A @ PX @ At
         Mt += C
-        Mt[:, n:, -1] += z  # [−x̄; −ŷ] + [0; z] = [−x̄; z̄]
+        Mt[:, n:, n] += z  # [−x̄; −ŷ] + [0; z] = [−x̄; z̄]
         does = self._processes_mask(kind)
         gate = None if self._no_gate else self._gate
         if not every:

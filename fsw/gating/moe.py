@@ -11,19 +11,48 @@ Each filter i is an expert with a gating cell of weight vector a_i. For the inpu
 Everything is done with log-densities and log-sum-exp, so h never underflows however peaked the
 likelihoods are.
 
-Input features φ. Seed 003 uses the raw measurement vector (u_i = zᵀa_i), which makes the gate a
-function of *where* the measurement lies — the classical mixture-of-experts partition of the
-input space. Here the default is the constant φ = [1] ("constant"): u_i = a_i is then a learned
-log-prior per filter, the gate is the same for every input, and the only thing that moves it is
-filter performance through (h_i − g_i). That is what seed 001 §2 asks of a gating network for
-anomaly detection (weights that say how well each filter is doing, not how expert it is for a
-given input), and it avoids scale problems with raw inputs: a range of 10⁸ km or the tracking
-example's linearly growing range would multiply the step size by the input magnitude and
-saturate the softmax. The learning stays additive with a fading memory (seed 003 §III), which is
-why it switches faster than Magill after a regime change. ``features = "kind"`` appends a one-hot
-of the measurement kind (from ``kinds``) to the constant, so filters can become experts per data
-type; a callable ``feature_map`` can be passed to the constructor for anything else (its first
-component should be the constant 1, which the re-entry rule below uses).
+Input features φ. Seed 003 eq. 12 sets u_i = zᵀa_i with the raw measurement z_k as input, and
+eq. 20 updates a_i along z_k. Here the default is the constant φ = [1] ("constant"): u_i = a_i is
+then a learned log-prior per filter, the gate is the same for every input, and the only thing that
+moves it is filter performance through (h_i − g_i). That is what seed 001 §2 asks of a gating
+network for anomaly detection, and it is the reading under which the paper's switching experiment
+(§V.C) works at all. Measured on seed 003's tracking example (``sim.scenarios.chaer_tracking``, tests in
+``tests/test_gating_moe.py``) with the literal φ = z_k:
+
+* the effective step is η|z_k|² ≥ 10⁴ η (the velocity alone is 100 m/s), so after one or two
+  measurements the losing logits are tens to hundreds of nats down; h_i − g_i =
+  g_i(f_i/Σ_j f_j g_j − 1) is then negligible and the gate is practically frozen;
+* which filter it freezes on is decided by the start-up transient (P₀⁻ = 1000 I, a 100 m/s velocity
+  error), not by the data: with the Table I bank and a truth equal to KF 1, η = 0.1 freezes on KF 3
+  in 10 of 10 runs; on Experiment 3 (η = 0.1, 1 or 7, 20 runs) the top filter changes at most
+  three times in 500 measurements and the matching filter is on top 20 % of the time (one segment's
+  worth), against 73 % with φ = [1] at η = 1;
+* a linear-domain softmax of logits that size (10⁴–10¹⁰) overflows e^709, so the paper's smooth
+  weight histories cannot have come from eq. 12 with unscaled z as printed.
+
+The literal form stays available through ``feature_map`` (:func:`table_feature_map` serves a table
+of inputs by measurement sequence number, e.g. the measurements of a replayed run; a bank record
+does not carry the measurement value itself). ``features = "kind"`` appends a one-hot of the
+measurement kind (from ``kinds``) to the constant, so filters can become experts per data type;
+any callable ``feature_map`` whose first component is the constant 1 keeps the re-entry rule below
+exact.
+
+Behaviour on seed 003 §V with φ = [1] (the paper's reported numbers in brackets; details and the
+reasons in ``sim.scenarios.chaer_tracking``):
+
+* the learning is additive with a fading memory (§III): the winning logit lead grows only like
+  ln k, so a regime change is undone in a bounded number of measurements, unlike Magill;
+* Experiment 3, η = 1, first change: KF 1's weight starts to fall at once (below 0.9 of its
+  pre-change value a median 4 measurements after the change), KF 2 takes the largest weight a
+  median 10 after it [gating "switches after measurement 103"; Magill after 110, measured median 21];
+  η = 7 takes the top weight after a median 3 and reaches 0.9 as fast as Magill does [§V.C: "when
+  η = 7.0, the gating network converges as fast as the Magill algorithm"];
+* Experiments 1–2: the time to select KF 3 scales with η. The Table I/II filters KF 2, 4, 5 are
+  within 0.02–0.05 nat per measurement of KF 3 (steady-state expected log-likelihoods), so even the
+  exact Bayesian posterior (Magill) needs ~100–300 measurements, and this additive rule, whose step
+  is η g_i(f_i/f̄ − 1), is slower still: at η = 1 KF 3 has a median 0.26 after 100 measurements and
+  0.44 after 300, at η = 7 0.74 and 0.95; at η = 0.1 it barely moves from 0.2 in 1000
+  [paper: "quite rapid" for η = 0.1 and 1.0]. That part of seed 003 does not reproduce.
 
 A disabled filter is left out of the softmax (g = 0, no learning). When it is enabled again its
 constant component is set so that, with the other features at zero, its share is 1/N_active.
@@ -64,6 +93,26 @@ def feature_vector(record: BankRecord, features: str, kinds: tuple[str, ...]) ->
     if record.kind in kinds:
         phi[1 + kinds.index(record.kind)] = 1.0
     return phi
+
+
+def table_feature_map(table: np.ndarray, bias: bool = False) -> tuple[FeatureMap, int]:
+    """A feature map serving row ``record.seq`` of ``table`` (K, d) — e.g. the measurement values
+    z_k of a replayed run, the input of seed 003 eq. 12 — optionally prefixed by a constant 1.
+
+    Returns ``(feature_map, feature_dim)`` for :class:`MoeNetwork`. A record whose sequence
+    number is outside the table raises :class:`GatingInputError`."""
+    values = np.asarray(table, dtype=float)
+    if values.ndim != 2 or values.shape[0] < 1 or not np.all(np.isfinite(values)):
+        raise InvalidParameterError(f"feature table must be a finite (K, d) array, got shape {values.shape}")
+    if bias:
+        values = np.column_stack((np.ones(len(values)), values))
+
+    def feature_map(record: BankRecord) -> np.ndarray:
+        if not 0 <= record.seq < len(values):
+            raise GatingInputError(f"no input features for measurement seq={record.seq} (table has {len(values)})")
+        return values[record.seq]
+
+    return feature_map, int(values.shape[1])
 
 
 def reentry_bias(a: np.ndarray, kept: np.ndarray, entering: np.ndarray) -> np.ndarray:

@@ -55,6 +55,7 @@ import socket
 import struct
 import threading
 import time
+import typing
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
@@ -65,6 +66,8 @@ from fsw.interface import codec, topics
 from fsw.interface.messages import RunStatus, Stamp, Telecommand, TelecommandReply
 from fsw.interface.typed import spec
 
+#: Roles that may serve a progress queryable (the ``source`` values of RunStatus).
+ROLES: tuple[str, ...] = typing.get_args(typing.get_type_hints(RunStatus)["source"])
 PROGRESS = "progress"  # navbank/<run>/<role>/progress: consumer progress queryable
 COMPLETE = "complete"  # counts key of a progress reply: 1 when the producer's stream is complete
 _SEQ = struct.Struct("<Q")
@@ -337,6 +340,8 @@ class Subscriber:
         if not topic_exprs:
             raise ValueError("subscribe to at least one topic expression")
         self.run_id = topics.check_run_id(run_id)
+        if role is not None and role not in ROLES:
+            raise ValueError(f"role {role!r}: expected one of {', '.join(ROLES)}")
         self.role = role
         self.decode = decode
         self._prefix_len = len(topics.run_prefix(run_id)) + 1
@@ -481,6 +486,21 @@ class Subscriber:
     def finished(self, producers: Iterable[str]) -> bool:
         """Every producer in ``producers`` has published end-of-run and we have all it announced."""
         return all(p in self.end_of_run and self.is_complete(self.end_of_run[p]) for p in producers)
+
+    def wait_acknowledged(self, producers: Iterable[str], timeout_s: float = 5.0, linger_s: float = 0.2) -> bool:
+        """Before closing: wait until each producer's drain query was answered "complete".
+
+        Keeps answering progress queries meanwhile (on Zenoh's thread); then lingers ``linger_s``
+        so the last reply leaves before the session closes. False if a producer never asked.
+        """
+        producers = list(producers)
+        deadline = time.monotonic() + timeout_s
+        while not all(self.acknowledged.get(p) for p in producers):
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(0.01)
+        time.sleep(linger_s)
+        return True
 
     def counts(self) -> dict[str, int]:
         with self._lock:

@@ -21,6 +21,36 @@ parameter tables of the three experiments, and a generator for (piecewise-statio
 Conventions (the paper leaves them implicit): measurement k is taken at t_k = k Δt, k = 0…K−1;
 the truth starts at x₀ = [0 m, 100 m/s]; the process noise that carries x_{k−1} to x_k and the
 measurement noise of z_k both use the statistics of the sub-sequence that measurement k belongs to.
+Both Q and R change at every boundary (Table III lists all four components per sub-sequence); the
+trajectory is continuous across boundaries. The filters are the time-varying KFs of eqs. 2–6 from
+the stated P₀⁻ (not steady-state filters: with a steady-state S of a few m² the first residual of
+~100 m/s in velocity would cost ~10³ nat and the product of eq. 7 would underflow at once).
+
+What the paper reports, and what this model gives (measured in ``tests/test_gating_magill.py``,
+``tests/test_gating_moe.py``; expected log-likelihoods from the steady-state Riccati and Lyapunov
+equations in ``tests/test_chaer_bank.py``):
+
+* Underflow of Magill's literal product (§V.C: after measurement 168). With the normaliser printed
+  in eqs. 7/13/22, (2π|W|)^{−1/2}: after 169 (165–173); with the 2-variate density: after 142.
+  See ``fsw.gating.magill``.
+* Magill switch to KF 2 (§V.C: after measurement 110). Median 21 measurements after the change
+  (10–90 %: 13–32); 8 % of runs are within 10, and those runs underflow at 165–170 — the paper's
+  run is a plausible single realisation. KF 1 leads KF 2 by 1.06 nat per measurement in segment 1
+  and loses 5.7 nat per measurement in segment 2.
+* Gating network switch (§V.C: after measurement 103, η = 1). The paper does not define "switch".
+  With φ = [1] (see ``fsw.gating.moe`` for why not the raw z of eq. 12), KF 1's weight falls below
+  0.9 of its pre-change value a median 4 after the change ("onset"), and KF 2 takes the largest
+  weight a median 10 after it ("top"); in the runs where Magill switches within 10 (like the
+  paper's), onset is 2–5 and top 5–9. η = 7 gives top after a median 3.
+* Segments 3–5 are intrinsically harder: the matching filter beats the runner-up by only 0.48,
+  0.31 and 0.57 nat per measurement (segment 2: 0.33, but against KF 1 it is 5.7), so any
+  likelihood-driven gate needs tens of measurements there. Magill without a lower bound does not
+  follow them at all.
+* Experiments 1–2 (§V.A–B: KF 3 selected "quite rapid" for η = 0.1 and 1). KF 2, KF 4 and KF 5 are
+  within 0.02–0.05 nat per measurement of KF 3 (Table I: 0.033 to KF 4; Table II: 0.023), so even
+  the exact Bayesian posterior needs ~100–300 measurements; the gating network with φ = [1] at η = 1
+  needs about a thousand, at η = 7 a few hundred, at η = 0.1 it hardly moves. Not reproduced;
+  nothing in §V (tables, initial conditions, sampling) would change these separations.
 """
 
 from __future__ import annotations
@@ -68,6 +98,13 @@ TABLE_III = ((1.0, 1.0, 1.0, 1.0), (10.0, 25.0, 1.0, 1.0), (10.0, 10.0, 16.0, 16
 
 EXPERIMENT_3_SEGMENT_LENGTH = 100
 """Length of each of the five sub-sequences of Experiment 3 (seed 003 §V.C)."""
+
+
+PAPER_UNDERFLOW_MEASUREMENT = 168
+"""Seed 003 §V.C: Magill's product form underflows after this many measurements of Experiment 3."""
+
+PAPER_SWITCH_MEASUREMENT = {"moe": 103, "magill": 110}
+"""Seed 003 §V.C: measurement after which each scheme switches from KF 1 to KF 2 (η = 1 gate)."""
 
 
 class TrackingRun(NamedTuple):
@@ -148,3 +185,43 @@ def bank_parameters(experiment: int) -> np.ndarray:
     if experiment not in tables:
         raise ValueError(f"experiment must be 1, 2 or 3, got {experiment!r}")
     return np.asarray(tables[experiment], dtype=float)
+
+def switch_delays(
+    weights: np.ndarray, segment_length: int = EXPERIMENT_3_SEGMENT_LENGTH, rule: str = "top",
+    onset_fraction: float = 0.9,
+) -> np.ndarray:
+    """Delay, in measurements, of a weight history's reaction to each regime change of Experiment 3.
+
+    ``weights`` (K, N) has one row per measurement; sub-sequence s (0-based) should select filter s.
+    For each change s = 1..K/segment_length − 1, counting the first measurement of the new
+    sub-sequence as 1 (seed 003's "after measurement 103" for a change after 100 is a delay of 3):
+
+    * ``rule = "top"``: until filter s first has the largest weight;
+    * ``rule = "onset"``: until the filter that was on top at the end of sub-sequence s − 1 first has
+      less than ``onset_fraction`` of the weight it had then (the need to switch is detected).
+
+    ``segment_length + 1`` means it did not happen within the sub-sequence.
+    """
+    W = np.asarray(weights, dtype=float)
+    if W.ndim != 2 or W.shape[0] < 2 * segment_length or W.shape[0] % segment_length:
+        raise ValueError(f"weights must be (S*{segment_length}, N) with S >= 2, got {W.shape}")
+    if rule not in ("top", "onset"):
+        raise ValueError(f"rule must be 'top' or 'onset', got {rule!r}")
+    if not 0.0 < onset_fraction < 1.0:
+        raise ValueError("onset_fraction must be in (0, 1)")
+    n_seg = W.shape[0] // segment_length
+    if W.shape[1] < n_seg:
+        raise ValueError(f"{n_seg} sub-sequences need at least {n_seg} filters")
+    out = np.full(n_seg - 1, segment_length + 1, dtype=int)
+    for s in range(1, n_seg):
+        seg = W[s * segment_length:(s + 1) * segment_length]
+        if rule == "top":
+            hit = np.argmax(seg, axis=1) == s
+        else:
+            before = W[s * segment_length - 1]
+            prev = int(np.argmax(before))
+            hit = seg[:, prev] < onset_fraction * before[prev]
+        idx = np.flatnonzero(hit)
+        if idx.size:
+            out[s - 1] = int(idx[0]) + 1
+    return out

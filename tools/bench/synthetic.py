@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsw.astro.constants import C_KM_S
 from fsw.astro.frames import matrix_to_quat
 from fsw.astro.time import tdb_to_unix, utc_iso_to_tdb
 from fsw.filters.config import BankConfig, FilterConfig
@@ -129,4 +128,4 @@ def make_run(span_days: float = 45.0, end_offset_h: float = 6.0, seed: int = 1, 
     return SyntheticRun(t0=t0, position_km=r0[0], velocity_km_s=v0[0], measurements=tuple(out), truth=states)
 
 
-__all__ = ["SyntheticRun", "make_run", "entry_state", "C_KM_S"]
+__all__ = ["SyntheticRun", "make_run", "entry_state"]

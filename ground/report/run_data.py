@@ -1,0 +1,282 @@
+"""The arrays a run report plots, extracted once from a run's ICD messages.
+
+Input is any iterable of ``(topic, message)`` pairs — the in-process runner's list, or
+:func:`ground.mcap_io.reader.read_messages` (its 4-tuples end with the message, so they work as
+is). Topics may carry the MCAP leading slash. Messages that did not decode (raw bytes, plain
+JSON) or arrive on unknown topics are counted in :attr:`RunData.skipped`, never fatal.
+
+Every trace is sorted by epoch, because a complete MCAP file is read in receive-time order, not
+in simulated-time order. Position and clock errors compare an Estimate with the Truth of the same
+epoch (the FSW's hourly estimate grid is contained in the truth cadence), matched on ``t_s``
+rounded to 1 ms, so no interpolation enters the error.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from fsw.interface import messages as m, topics
+
+DAY_S = 86400.0
+#: Epoch matching resolution between Estimate and Truth (seconds): t_s rounded to 1 ms.
+MATCH_DECIMALS = 3
+#: Name of the onboard clock phase state in Estimate.state_names (seconds).
+CLOCK_PHASE_STATE = "clock_phase"
+
+
+@dataclass
+class WeightTrace:
+    """One gating network's weights over time; ``weights[k, i]`` is NaN if filter i was absent."""
+
+    network: str
+    filters: tuple[str, ...]
+    t_s: np.ndarray
+    weights: np.ndarray
+    batch: np.ndarray
+
+
+@dataclass
+class ErrorTrace:
+    """|estimate − truth| of one estimate stream at matched epochs, with its 1-sigma."""
+
+    label: str
+    t_s: np.ndarray
+    error: np.ndarray
+    sigma: np.ndarray
+    unmatched: int = 0  # estimates with no truth at their epoch
+
+
+@dataclass
+class AnomalyTrace:
+    """The detector's reports: statistic, threshold and flag over time, and its declarations."""
+
+    network: str
+    t_s: np.ndarray
+    statistic: np.ndarray
+    threshold: np.ndarray
+    flag: np.ndarray
+    declarations: list[m.AnomalyReport] = field(default_factory=list)  # first report of each rise of the flag
+
+
+@dataclass
+class BudgetTrace:
+    """Frame executive telemetry."""
+
+    mode: str
+    t_s: np.ndarray
+    utilisation: np.ndarray
+    backlog: np.ndarray
+    deferred: np.ndarray
+    processed: np.ndarray
+    overruns: int
+    errors: int
+
+
+@dataclass
+class RunData:
+    """Everything the run plots and the run summary need."""
+
+    t0: float
+    weights: dict[str, WeightTrace] = field(default_factory=dict)
+    position: dict[str, ErrorTrace] = field(default_factory=dict)
+    clock: dict[str, ErrorTrace] = field(default_factory=dict)
+    anomaly: AnomalyTrace | None = None
+    budget: BudgetTrace | None = None
+    measurements: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)  # kind -> (t_s, source)
+    faults: list[m.FaultEvent] = field(default_factory=list)
+    run_id: str | None = None
+    filters: tuple[str, ...] = ()  # bank order (from the weights, else the estimate topics)
+    status: dict[str, m.RunStatus] = field(default_factory=dict)  # source -> last RunStatus
+    skipped: int = 0
+
+    def day(self, t_s: np.ndarray | float) -> np.ndarray | float:
+        """Days since the start of the run."""
+        return (np.asarray(t_s, dtype=float) - self.t0) / DAY_S
+
+    @property
+    def fault_starts(self) -> list[m.FaultEvent]:
+        return [e for e in self.faults if e.event == "start"]
+
+    @property
+    def onset_s(self) -> float | None:
+        """True epoch of the first injected fault."""
+        starts = self.fault_starts
+        return min(e.t_s for e in starts) if starts else None
+
+    @property
+    def first_declaration(self) -> m.AnomalyReport | None:
+        return self.anomaly.declarations[0] if self.anomaly is not None and self.anomaly.declarations else None
+
+
+def declared_epoch(report: m.AnomalyReport) -> float:
+    """When the flag was raised (the report's own epoch if it does not say)."""
+    return report.declared_s if report.declared_s is not None else report.t_s
+
+
+def _sorted(msgs: list, key=lambda x: x.t_s) -> list:
+    return sorted(msgs, key=key)
+
+
+def group_by_topic(messages: Iterable[Any]) -> tuple[dict[str, list], int]:
+    """ICD messages by topic (no leading slash); the count of items that are not ICD messages."""
+    by: dict[str, list] = defaultdict(list)
+    skipped = 0
+    for item in messages:
+        topic, msg = str(item[0]).strip("/"), item[-1]
+        try:
+            expected = topics.type_of_topic(topic)
+        except KeyError:
+            skipped += 1
+            continue
+        if not isinstance(msg, expected):
+            skipped += 1
+            continue
+        by[topic].append(msg)
+    return by, skipped
+
+
+def _weights(network: str, msgs: list[m.FilterWeights]) -> WeightTrace:
+    msgs = _sorted(msgs, key=lambda x: (x.t_s, x.batch))
+    names: list[str] = []
+    for w in msgs:
+        names.extend(f for f in w.filters if f not in names)
+    col = {n: i for i, n in enumerate(names)}
+    W = np.full((len(msgs), len(names)), np.nan)
+    for k, w in enumerate(msgs):
+        W[k, [col[f] for f in w.filters]] = w.weights
+    return WeightTrace(network=network, filters=tuple(names), t_s=np.array([w.t_s for w in msgs], dtype=float),
+                       weights=W, batch=np.array([w.batch for w in msgs], dtype=int))
+
+
+def _key(t_s: float) -> float:
+    return round(float(t_s), MATCH_DECIMALS)
+
+
+def _position_error(label: str, ests: list[m.Estimate], truth: dict[float, m.Truth]) -> ErrorTrace:
+    t, err, sig = [], [], []
+    unmatched = 0
+    for e in ests:
+        tr = truth.get(_key(e.t_s))
+        if tr is None:
+            unmatched += 1
+            continue
+        t.append(e.t_s)
+        err.append(np.linalg.norm(np.subtract(e.position_km, tr.position_km)))
+        sig.append(e.position_sigma_km)
+    return ErrorTrace(label, np.array(t, dtype=float), np.array(err, dtype=float), np.array(sig, dtype=float), unmatched)
+
+
+def _clock_error(label: str, ests: list[m.Estimate], truth: dict[float, m.Truth]) -> ErrorTrace | None:
+    """Estimated clock phase minus the true one, for the estimates that carry a clock phase state
+    (a 'best' stream switches between filters, so the state may come and go)."""
+    t, err, sig = [], [], []
+    unmatched = 0
+    carried = False
+    for e in ests:
+        if CLOCK_PHASE_STATE not in e.state_names:
+            continue
+        carried = True
+        tr = truth.get(_key(e.t_s))
+        if tr is None:
+            unmatched += 1
+            continue
+        i = e.state_names.index(CLOCK_PHASE_STATE)
+        t.append(e.t_s)
+        err.append(e.state[i] - tr.clock_phase_s)
+        sig.append(e.sigma[i])
+    if not carried:
+        return None
+    return ErrorTrace(label, np.array(t, dtype=float), np.array(err, dtype=float), np.array(sig, dtype=float), unmatched)
+
+
+def _anomaly(reports: list[m.AnomalyReport]) -> AnomalyTrace:
+    reports = _sorted(reports)
+    decl: list[m.AnomalyReport] = []
+    was = False
+    for r in reports:
+        if r.flag and not was:
+            decl.append(r)
+        was = r.flag
+    return AnomalyTrace(
+        network=next((r.network for r in reversed(reports) if r.network), ""),
+        t_s=np.array([r.t_s for r in reports], dtype=float),
+        statistic=np.array([r.statistic for r in reports], dtype=float),
+        threshold=np.array([r.threshold for r in reports], dtype=float),
+        flag=np.array([r.flag for r in reports], dtype=bool),
+        declarations=decl,
+    )
+
+
+def _budget(reports: list[m.BudgetReport]) -> BudgetTrace:
+    reports = _sorted(reports, key=lambda b: (b.t_s, b.frame))
+    return BudgetTrace(
+        mode=reports[-1].mode,
+        t_s=np.array([b.t_s for b in reports], dtype=float),
+        utilisation=np.array([b.utilisation for b in reports], dtype=float),
+        backlog=np.array([b.backlog for b in reports], dtype=int),
+        deferred=np.array([b.deferred for b in reports], dtype=int),
+        processed=np.array([b.processed for b in reports], dtype=int),
+        overruns=max(b.overruns for b in reports),
+        errors=max(b.errors for b in reports),
+    )
+
+
+def _start_epoch(by: dict[str, list]) -> float:
+    starts = [s.t_s for s in by.get(topics.SIM_STATUS, []) if s.state == "start"]
+    if starts:
+        return float(min(starts))
+    for topic in (topics.SIM_TRUTH, topics.SIM_MEASUREMENTS):
+        if by.get(topic):
+            return float(min(x.t_s for x in by[topic]))
+    epochs = [x.t_s for msgs in by.values() for x in msgs if hasattr(x, "t_s")]
+    return float(min(epochs)) if epochs else 0.0
+
+
+def extract(messages: Iterable[Any], *, t0: float | None = None) -> RunData:
+    """The arrays of a run; ``t0`` (TDB s) is day 0 of the plots (default: the simulator's start)."""
+    by, skipped = group_by_topic(messages)
+    data = RunData(t0=_start_epoch(by) if t0 is None else float(t0), skipped=skipped)
+    for topic, msgs in sorted(by.items()):
+        if topic.startswith(topics.FSW_WEIGHTS + "/"):
+            trace = _weights(topic.split("/", 2)[2], msgs)
+            data.weights[trace.network] = trace
+    truth: dict[float, m.Truth] = {_key(t.t_s): t for t in by.get(topics.SIM_TRUTH, [])}
+    estimate_labels = []
+    for topic, msgs in by.items():
+        if not topic.startswith(topics.FSW_ESTIMATE + "/"):
+            continue
+        label = topic.split("/", 2)[2]
+        estimate_labels.append(label)
+        ests = _sorted(msgs)
+        if truth:
+            data.position[label] = _position_error(label, ests, truth)
+            clock = _clock_error(label, ests, truth)
+            if clock is not None:
+                data.clock[label] = clock
+    if by.get(topics.FSW_ANOMALY):
+        data.anomaly = _anomaly(by[topics.FSW_ANOMALY])
+    if by.get(topics.FSW_BUDGET):
+        data.budget = _budget(by[topics.FSW_BUDGET])
+    kinds: dict[str, list[m.Measurement]] = defaultdict(list)
+    for meas in by.get(topics.SIM_MEASUREMENTS, []):
+        kinds[meas.kind].append(meas)
+    for kind in m.MEASUREMENT_KINDS:
+        if kinds.get(kind):
+            ms = _sorted(kinds[kind])
+            data.measurements[kind] = (np.array([x.t_s for x in ms], dtype=float), np.array([x.source for x in ms], dtype=object))
+    data.faults = _sorted(by.get(topics.SIM_FAULTS, []))
+    for topic in (topics.SIM_STATUS, topics.FSW_STATUS, topics.GROUND_STATUS):
+        for s in _sorted(by.get(topic, [])):
+            data.status[s.source] = s
+            data.run_id = data.run_id or s.run_id
+    filters: list[str] = []
+    for trace in data.weights.values():
+        filters.extend(f for f in trace.filters if f not in filters)
+    filters.extend(sorted(lb for lb in estimate_labels if lb not in filters and lb not in ("combined", "best")))
+    data.filters = tuple(filters)
+    return data

@@ -1,0 +1,264 @@
+"""Figures of one run, in the form of seed 001's results figures.
+
+* ``weights_<network>.png`` — gating-network weights vs time, one line per filter (Figs. 6, 7,
+  10, 11, 15, 16, 20–22), fault onset and anomaly declaration marked;
+* ``position_error_<filter>.png`` — |estimate − truth| with the ±1σ / 3σ RTPC envelope on a log
+  axis (Figs. 3–5, 8, 9, 12, 13, 17–19); ``position_error_all.png`` overlays every filter;
+* ``clock_phase_<filter>.png`` — clock phase error with its 1σ / 3σ bounds (Fig. 14);
+* ``anomaly_statistic.png`` — the detector's statistic against its threshold, flag shaded;
+* ``budget.png`` — frame utilisation and backlog of the executive;
+* ``measurements.png`` — which measurement kinds arrived when, coloured by station/target.
+
+Every figure is ~10×4 in at 120 dpi with days since the start of the run on the x axis.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ground.report import figure as F
+from ground.report.run_data import RunData, declared_epoch, extract
+
+#: Below this many points a trace is drawn with markers too (batch networks update rarely).
+FEW_POINTS = 60
+
+
+def _event_lines(ax: Any, data: RunData, *, estimated_onset: bool = True) -> None:
+    """Vertical lines: true fault onset/end, anomaly declaration and its estimated onset."""
+    seen: set[str] = set()
+
+    def vline(t_s: float, label: str, **kw: Any) -> None:
+        ax.axvline(data.day(t_s), label=None if label in seen else label, linewidth=1.4, **kw)
+        seen.add(label)
+
+    for ev in data.faults:
+        if ev.event == "start":
+            vline(ev.t_s, f"fault onset ({ev.fault_type})", color="crimson", linestyle="--")
+        else:
+            vline(ev.t_s, f"fault end ({ev.fault_type})", color="crimson", linestyle=":")
+    if data.anomaly is not None:
+        for r in data.anomaly.declarations:
+            vline(declared_epoch(r), f"anomaly declared: {r.anomaly_class}", color="black", linestyle="-")
+            if estimated_onset and r.onset_s is not None:
+                vline(r.onset_s, "estimated onset", color="dimgray", linestyle="-.")
+
+
+def _time_axis(ax: Any, data: RunData) -> None:
+    ax.set_xlabel("time since start of run [days]")
+    ax.grid(True, which="major", alpha=0.3)
+
+
+def plot_weights(data: RunData, network: str, path: Path) -> Path:
+    """Weights of ``network`` vs time on a linear 0–1 axis; steps, since weights hold between updates."""
+    trace = data.weights[network]
+    fig, ax = F.new_figure()
+    styles = F.filter_styles(trace.filters)
+    days = data.day(trace.t_s)
+    few = len(days) <= FEW_POINTS
+    for i, name in enumerate(trace.filters):
+        ax.plot(days, trace.weights[:, i], drawstyle="steps-post", linewidth=1.6, label=name,
+                marker="o" if few else None, markersize=3.5, **styles[name])
+    n = len(trace.filters)
+    if n:
+        ax.axhline(1.0 / n, color="gray", linewidth=0.8, linestyle=":", label=f"equal weight 1/{n}")
+    _event_lines(ax, data)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_ylabel("filter weight [-]")
+    _time_axis(ax, data)
+    ax.set_title(f"Gating network '{network}': filter weights ({len(days)} updates)")
+    F.legend_outside(ax)
+    return F.save(fig, path)
+
+
+def plot_position_error(data: RunData, label: str, path: Path) -> Path:
+    """Position error magnitude with the ±1σ / 3σ RTPC envelope, log axis (seed 001 Figs. 3–5)."""
+    tr = data.position[label]
+    fig, ax = F.new_figure()
+    days = data.day(tr.t_s)
+    ax.semilogy(days, _positive(tr.error), color=F.ERROR_COLOR, linewidth=1.5, label="position error |r̂ − r|")
+    ax.semilogy(days, tr.sigma, color=F.SIGMA1_COLOR, linewidth=1.3, label="1σ RTPC")
+    ax.semilogy(days, 3.0 * tr.sigma, color=F.SIGMA3_COLOR, linewidth=1.3, label="3σ RTPC")
+    _event_lines(ax, data)
+    ax.set_ylabel("position [km]")
+    _time_axis(ax, data)
+    ax.grid(True, which="minor", alpha=0.12)
+    inside = float(np.mean(tr.error <= 3.0 * tr.sigma)) if len(tr.error) else float("nan")
+    ax.set_title(f"Position error and uncertainty — {_estimate_name(label)} ({100 * inside:.0f} % of epochs within 3σ)")
+    F.legend_outside(ax)
+    return F.save(fig, path)
+
+
+def plot_position_errors_all(data: RunData, path: Path) -> Path:
+    """Every estimate stream's position error on one log axis (which filter is best when)."""
+    labels = [lb for lb in _ordered_estimates(data) if len(data.position[lb].t_s)]
+    styles = F.filter_styles([lb for lb in labels if lb not in ("combined", "best")])
+    styles["combined"] = {"color": "black", "linestyle": "-"}
+    styles["best"] = {"color": "black", "linestyle": ":"}
+    fig, ax = F.new_figure()
+    for lb in labels:
+        tr = data.position[lb]
+        ax.semilogy(data.day(tr.t_s), _positive(tr.error), linewidth=1.4, label=lb, **styles[lb])
+    _event_lines(ax, data, estimated_onset=False)
+    ax.set_ylabel("position error [km]")
+    _time_axis(ax, data)
+    ax.grid(True, which="minor", alpha=0.12)
+    ax.set_title("Position error of every filter and of the combined / best solutions")
+    F.legend_outside(ax)
+    return F.save(fig, path)
+
+
+def plot_clock_phase(data: RunData, label: str, path: Path) -> Path:
+    """Estimated minus true clock phase with its 1σ / 3σ bounds, in microseconds (seed 001 Fig. 14)."""
+    tr = data.clock[label]
+    fig, ax = F.new_figure()
+    days = data.day(tr.t_s)
+    us = 1.0e6
+    ax.plot(days, tr.error * us, color=F.ERROR_COLOR, linewidth=1.5, label="clock phase error (estimate − truth)")
+    for k, color in ((1.0, F.SIGMA1_COLOR), (3.0, F.SIGMA3_COLOR)):
+        ax.plot(days, k * tr.sigma * us, color=color, linewidth=1.2, label=f"±{k:g}σ")
+        ax.plot(days, -k * tr.sigma * us, color=color, linewidth=1.2)
+    ax.axhline(0.0, color="gray", linewidth=0.6)
+    _event_lines(ax, data)
+    ax.set_ylabel("clock phase [µs]")
+    _time_axis(ax, data)
+    ax.set_title(f"Clock phase error and uncertainty — {_estimate_name(label)}")
+    F.legend_outside(ax)
+    return F.save(fig, path)
+
+
+def plot_anomaly_statistic(data: RunData, path: Path) -> Path:
+    """Detection statistic vs its threshold, periods with the flag raised shaded."""
+    an = data.anomaly
+    assert an is not None
+    fig, ax = F.new_figure()
+    days = data.day(an.t_s)
+    ax.plot(days, an.statistic, drawstyle="steps-post", color="tab:blue", linewidth=1.5, marker="o", markersize=3,
+            label="detection statistic D")
+    ax.plot(days, an.threshold, drawstyle="steps-post", color="tab:red", linestyle="--", linewidth=1.3, label="declaration threshold")
+    for start, end in _runs(an.flag):
+        t_end = days[end] if end < len(days) else days[-1]
+        ax.axvspan(days[start], t_end, color="gold", alpha=0.25, linewidth=0,
+                   label="flag raised" if start == _runs(an.flag)[0][0] else None)
+    _event_lines(ax, data)
+    top = np.nanmax(np.concatenate([an.statistic, an.threshold])) if len(days) else 1.0
+    if np.isfinite(top) and top > 0 and np.nanmax(an.threshold, initial=0.0) > 0 and top / np.nanmax(an.threshold) > 20:
+        ax.set_yscale("symlog", linthresh=max(float(np.nanmax(an.threshold)), 1e-3))
+    ax.set_ylabel("statistic D [-]")
+    _time_axis(ax, data)
+    net = f" on '{an.network}' weights" if an.network else ""
+    ax.set_title(f"Anomaly detector{net}: statistic vs threshold ({len(an.declarations)} declaration(s))")
+    F.legend_outside(ax)
+    return F.save(fig, path)
+
+
+def plot_budget(data: RunData, path: Path) -> Path:
+    """Utilisation per frame and backlog depth of the frame executive."""
+    b = data.budget
+    assert b is not None
+    fig, (ax1, ax2) = F.new_figure(2, 1, size=(10.0, 5.0), sharex=True)
+    days = data.day(b.t_s)
+    busy = b.processed > 0
+    ax1.plot(days[busy], b.utilisation[busy], linestyle="none", marker=".", markersize=2.5, color="tab:blue", label="frames with work")
+    ax1.plot(days[~busy], b.utilisation[~busy], linestyle="none", marker=".", markersize=2.5, color="lightgray", label="idle frames")
+    ax1.axhline(1.0, color="tab:red", linestyle="--", linewidth=1.2, label="budget (100 %)")
+    ax1.set_ylabel("utilisation [used / budget]")
+    ax1.set_ylim(bottom=0.0, top=max(1.1, float(np.nanmax(b.utilisation, initial=0.0)) * 1.05))
+    ax1.grid(True, alpha=0.3)
+    unit = "scaled CPU s" if b.mode == "cpu" else "work units"
+    ax1.set_title(f"Frame executive ({b.mode} budget, {unit}): {len(days)} frame reports, {b.overruns} overruns, "
+                  f"{b.errors} errors, max backlog {int(b.backlog.max(initial=0))}")
+    F.legend_outside(ax1, markerscale=4)
+    ax2.plot(days, b.backlog, drawstyle="steps-post", color="tab:purple", linewidth=1.4, label="backlog (jobs)")
+    ax2.plot(days, b.deferred, drawstyle="steps-post", color="tab:olive", linewidth=1.0, alpha=0.8, label="stages deferred")
+    ax2.set_ylabel("count [-]")
+    ax2.set_ylim(bottom=0.0, top=max(1.0, float(max(b.backlog.max(initial=0), b.deferred.max(initial=0)))) * 1.1)
+    ax2.yaxis.get_major_locator().set_params(integer=True)
+    _time_axis(ax2, data)
+    F.legend_outside(ax2)
+    return F.save(fig, path)
+
+
+def plot_measurements(data: RunData, path: Path) -> Path:
+    """Measurement timeline: one row per kind, one tick per measurement, coloured by station/target."""
+    kinds = list(data.measurements)
+    fig, ax = F.new_figure(size=(10.0, max(2.4, 1.0 + 0.8 * len(kinds))))
+    sources = sorted({s for _, src in data.measurements.values() for s in src})
+    colors = {s: F._PALETTE[i % len(F._PALETTE)] for i, s in enumerate(sources)}
+    for row, kind in enumerate(kinds):
+        t, src = data.measurements[kind]
+        for s in sorted(set(src)):
+            sel = src == s
+            ax.plot(data.day(t[sel]), np.full(int(sel.sum()), row), linestyle="none", marker="|", markersize=14,
+                    markeredgewidth=0.8, color=colors[s], label=s)
+    handles, labels = ax.get_legend_handles_labels()
+    unique = dict(zip(labels, handles))
+    ax.set_yticks(range(len(kinds)), [f"{k}\n({len(data.measurements[k][0])})" for k in kinds])
+    ax.set_ylim(-0.6, len(kinds) - 0.4)
+    _event_lines(ax, data, estimated_onset=False)
+    handles, labels = ax.get_legend_handles_labels()
+    for h, lb in zip(handles, labels):
+        unique.setdefault(lb, h)
+    _time_axis(ax, data)
+    ax.set_ylabel("measurement kind (count)")
+    total = sum(len(t) for t, _ in data.measurements.values())
+    ax.set_title(f"Measurement timeline: {total} measurements by kind and station / target")
+    ax.legend(unique.values(), unique.keys(), loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=9)
+    return F.save(fig, path)
+
+
+def write_run_figures(messages: Iterable[Any] | RunData, out_dir: str | Path, *, t0: float | None = None) -> list[Path]:
+    """Write every figure the run's messages allow into ``out_dir``; returns the paths written."""
+    data = messages if isinstance(messages, RunData) else extract(messages, t0=t0)
+    out = Path(out_dir)
+    written: list[Path] = []
+    for net in data.weights:
+        written.append(plot_weights(data, net, out / f"weights_{F.slug(net)}.png"))
+    for label in _ordered_estimates(data):
+        if len(data.position[label].t_s):
+            written.append(plot_position_error(data, label, out / f"position_error_{F.slug(label)}.png"))
+    if sum(1 for tr in data.position.values() if len(tr.t_s)) > 1:
+        written.append(plot_position_errors_all(data, out / "position_error_all.png"))
+    for label in _ordered_estimates(data, data.clock):
+        if len(data.clock[label].t_s):
+            written.append(plot_clock_phase(data, label, out / f"clock_phase_{F.slug(label)}.png"))
+    if data.anomaly is not None and len(data.anomaly.t_s):
+        written.append(plot_anomaly_statistic(data, out / "anomaly_statistic.png"))
+    if data.budget is not None and len(data.budget.t_s):
+        written.append(plot_budget(data, out / "budget.png"))
+    if data.measurements:
+        written.append(plot_measurements(data, out / "measurements.png"))
+    return written
+
+
+def _ordered_estimates(data: RunData, traces: dict | None = None) -> list[str]:
+    """Estimate labels in bank order, then combined and best."""
+    traces = data.position if traces is None else traces
+    order = [f for f in data.filters if f in traces] + [lb for lb in ("combined", "best") if lb in traces]
+    return order + sorted(lb for lb in traces if lb not in order)
+
+
+def _estimate_name(label: str) -> str:
+    return {"combined": "weighted combined solution", "best": "highest-weight filter's solution"}.get(label, f"filter '{label}'")
+
+
+def _positive(x: np.ndarray) -> np.ndarray:
+    """Zero errors cannot sit on a log axis: show them as gaps, not as a crash or a spike."""
+    return np.where(x > 0, x, np.nan)
+
+
+def _runs(flag: np.ndarray) -> list[tuple[int, int]]:
+    """(first, one-past-last) indices of each run of True."""
+    runs, start = [], None
+    for i, f in enumerate(flag):
+        if f and start is None:
+            start = i
+        elif not f and start is not None:
+            runs.append((start, i))
+            start = None
+    if start is not None:
+        runs.append((start, len(flag)))
+    return runs

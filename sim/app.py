@@ -1,0 +1,96 @@
+"""``navbank sim`` as a process: publish the simulator's stream over Zenoh.
+
+The whole run is generated first (deterministic, a few seconds), then published in time order:
+fault events, truth and measurements interleaved as ``SimRun.iter_messages`` orders them. Paced
+as fast as possible by default, or at ``rate`` × real time.
+
+Delivery of measurements to the FSW is lossless even when the FSW stalls: a credit window keeps
+the simulator at most ``window`` measurements ahead of what the FSW has taken. The run ends with
+an end-of-run ``RunStatus`` (counts per topic) and the drain handshake with every consumer
+before the session closes (``fsw.interface.transport``).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Callable, Sequence
+
+from fsw.astro.time import tdb_to_unix
+from fsw.interface import topics, transport as tp
+from fsw.interface.messages import RunStatus, Stamp
+from sim.stream import SimRun
+
+
+def _status(run: SimRun, run_id: str, state: str, counts: dict[str, int], t: float, message: str = "") -> RunStatus:
+    return RunStatus(t_s=t, timestamp=Stamp.from_unix(float(tdb_to_unix(t))), run_id=run_id, source="sim",
+                     state=state, counts=counts, message=message)
+
+
+def publish_run(
+    run: SimRun,
+    run_id: str,
+    transport_cfg: tp.TransportConfig | None = None,
+    *,
+    consumers: Sequence[str] = ("fsw", "ground"),
+    credit_role: str | None = "fsw",
+    window: int = 2000,
+    rate: float | None = None,
+    wait_s: float = 60.0,
+    progress: Callable[[float], None] | None = None,
+) -> dict[str, int]:
+    """Publish ``run`` under ``navbank/<run_id>/sim/...``; returns the end-of-run counts.
+
+    ``consumers`` are the roles that must be up before the first message and must confirm the
+    end of the stream; ``credit_role`` (one of them) paces the measurements.
+    """
+    with tp.open_session(transport_cfg) as session:
+        tp.wait_for_consumers(session, run_id, consumers, timeout_s=wait_s)
+        credit = []
+        if credit_role is not None:
+            credit.append(tp.CreditWindow(session, run_id, credit_role, topics.SIM_MEASUREMENTS, window=window))
+        pubs = {
+            topics.SIM_MEASUREMENTS: tp.Publisher(session, run_id, topics.SIM_MEASUREMENTS, credit=credit),
+            topics.SIM_TRUTH: tp.Publisher(session, run_id, topics.SIM_TRUTH),
+            topics.SIM_FAULTS: tp.Publisher(session, run_id, topics.SIM_FAULTS),
+        }
+        status_pub = tp.Publisher(session, run_id, topics.SIM_STATUS)
+        try:
+            status_pub.put(_status(run, run_id, "start", {"measurements": len(run.measurements)}, run.t_start))
+            wall0 = time.monotonic()
+            n = max(len(run.measurements), 1)
+            sent = 0
+            next_progress = 0.0
+            for topic, msg in run.iter_messages():
+                if rate is not None:
+                    due = wall0 + (msg.t_s - run.t_start) / rate
+                    delay = due - time.monotonic()
+                    if delay > 0:
+                        time.sleep(delay)
+                pubs[topic].put(msg)
+                if topic == topics.SIM_MEASUREMENTS:
+                    sent += 1
+                    if progress is not None and time.monotonic() >= next_progress:
+                        progress(sent / n)
+                        next_progress = time.monotonic() + 1.0
+            counts = tp.end_of_run_counts(pubs.values(), measurements=pubs[topics.SIM_MEASUREMENTS].count)
+            end = _status(run, run_id, "end-of-run", counts, run.t_end)
+            status_pub.put(end)
+            done = tp.drain(session, run_id, end, consumers, timeout_s=max(wait_s, 30.0))
+            missing = [c for c, ok in done.items() if not ok]
+            if missing:
+                raise tp.TransportError(f"no end-of-stream confirmation from {', '.join(missing)}")
+            if progress is not None:
+                progress(1.0)
+            return counts
+        finally:
+            for p in (*pubs.values(), status_pub):
+                p.close()
+
+
+def print_progress(prefix: str) -> Callable[[float], None]:
+    def show(fraction: float) -> None:
+        print(f"{prefix} {100.0 * fraction:5.1f} %", file=sys.stderr, flush=True)
+
+    return show
+

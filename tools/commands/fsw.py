@@ -1,0 +1,41 @@
+"""``navbank fsw``: the flight-software process."""
+
+from __future__ import annotations
+
+import sys
+
+from fsw.app import run_fsw, stderr_progress
+from fsw.interface import transport as tp
+from tools.commands.common import add_scenario_arguments, run_id_arg, scenario_from_args
+from tools.scenario import resolve
+
+NAME = "fsw"
+HELP = "run the flight software (filter bank, gating, anomaly detector) on a Zenoh run"
+DESCRIPTION = """Run the flight software for one run: subscribe to navbank/<run-id>/sim/measurements (never
+truth), run the filter bank, gating networks and anomaly detector under the frame executive,
+publish weights, anomaly reports, estimates and budget reports, and answer telecommands on
+navbank/<run-id>/fsw/cmd. Only the scenario's fsw section is used (plus the seed, for the
+a-priori state when the file does not give fsw.initial_state)."""
+
+
+def add_arguments(p) -> None:
+    add_scenario_arguments(p)
+    p.add_argument("--run-id", type=run_id_arg, required=True, metavar="ID", help="run to join")
+    p.add_argument("--consumers", default="ground", metavar="LIST", help="roles that must confirm the end of the telemetry (default ground)")
+    p.add_argument("--idle-timeout", type=float, default=None, metavar="S", help="give up after S seconds without data")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    tp.add_transport_arguments(p)
+
+
+def run(args) -> int:
+    cfg, _ = resolve(scenario_from_args(args), args.seed)
+    consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
+    try:
+        counts = run_fsw(cfg.fsw, args.run_id, tp.transport_config_from_args(args), consumers=consumers,
+                         progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout)
+    except tp.TransportError as exc:
+        print(f"navbank fsw: {exc}", file=sys.stderr)
+        return 1
+    print(f"fsw: processed {counts.get('processed', 0)}, rejected {counts.get('rejected', 0)}, "
+          f"lost {counts.get('lost', 0)}", file=sys.stderr)
+    return 0

@@ -1,0 +1,152 @@
+"""``navbank run``: start the ground logger, the FSW and the simulator as separate processes.
+
+Each process is the real subcommand (``navbank ground log``, ``navbank fsw``, ``navbank sim``)
+started with the same interpreter, so what ``navbank run`` does a user can do by hand in three
+terminals. The launcher gives each a fixed loopback port and connects them as a full mesh
+(logger ← FSW ← simulator, and simulator → logger), writes the exact configuration of the run
+first, and supervises:
+
+* if a process exits with an error, the others are stopped (SIGTERM, then SIGKILL after a
+  grace period) and the launcher names the process, its exit code and its last words;
+* SIGINT/SIGTERM to the launcher stops all three the same way (the logger finishes its file);
+* a run that does not end within ``timeout_s`` is stopped and reported.
+
+On success it reads the MCAP back, computes the summary (``tools.summary``) and writes
+``DIR/summary.json`` next to ``DIR/run.mcap``, ``DIR/config.yaml`` and one log per process.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Callable
+
+from fsw.interface.transport import free_tcp_ports
+from tools.scenario import ScenarioConfig, to_yaml
+
+ROLES = ("ground", "fsw", "sim")  # start order: each connects to the ones before it
+GRACE_S = 10.0
+
+
+class RunFailed(RuntimeError):
+    """A process of the run failed; the message says which and why."""
+
+
+@dataclass
+class Child:
+    role: str
+    proc: subprocess.Popen
+    log_path: Path
+    tail: list[str] = field(default_factory=list)
+    thread: threading.Thread | None = None
+
+
+def _pump(child: Child, stream: IO[str], echo: Callable[[str], None] | None) -> None:
+    with open(child.log_path, "w", encoding="utf-8") as log:
+        for line in stream:
+            log.write(line)
+            log.flush()
+            child.tail.append(line.rstrip("\n"))
+            del child.tail[:-20]
+            if echo is not None:
+                echo(line.rstrip("\n"))
+
+
+def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[str, str]) -> list[str]:
+    base = [sys.executable, "-m", "tools.cli"]
+    before = [eps[r] for r in ROLES[: ROLES.index(role)]]
+    connect = [a for ep in before for a in ("--connect", ep)]
+    net = ["--listen", eps[role], *connect]
+    if role == "ground":
+        return [*base, "ground", "log", "--run-id", run_id, "--out", str(out_dir / "run.mcap"),
+                "--attach", str(cfg_path), *net]
+    if role == "fsw":
+        return [*base, "fsw", "--scenario", str(cfg_path), "--run-id", run_id, *net]
+    return [*base, "sim", "--scenario", str(cfg_path), "--run-id", run_id, *net]
+
+
+def _stop(children: list[Child]) -> None:
+    for c in children:
+        if c.proc.poll() is None:
+            c.proc.send_signal(signal.SIGTERM)
+    deadline = time.monotonic() + GRACE_S
+    for c in children:
+        try:
+            c.proc.wait(timeout=max(deadline - time.monotonic(), 0.1))
+        except subprocess.TimeoutExpired:
+            c.proc.kill()
+            c.proc.wait()
+
+
+def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float = 3600.0,
+           echo: Callable[[str], None] | None = None) -> dict[str, int]:
+    """Run the three processes for ``cfg`` (already resolved: seed and initial state fixed).
+
+    Returns the exit code per role; raises :class:`RunFailed` if any failed or time ran out."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    cfg_path = out_dir / "config.yaml"
+    cfg_path.write_text(to_yaml(cfg, complete=True), encoding="utf-8")
+    ports = free_tcp_ports(len(ROLES))
+    eps = {r: f"tcp/127.0.0.1:{p}" for r, p in zip(ROLES, ports)}
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    children: list[Child] = []
+    interrupted = threading.Event()
+    old = {s: signal.signal(s, lambda *_: interrupted.set()) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        for role in ROLES:
+            proc = subprocess.Popen(_command(role, cfg_path, run_id, out_dir, eps), stdout=subprocess.PIPE,
+                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True, env=env,
+                                    start_new_session=True)
+            child = Child(role, proc, out_dir / f"{role}.log")
+            child.thread = threading.Thread(target=_pump, args=(child, proc.stdout, echo if role == "fsw" else None),
+                                            daemon=True)
+            child.thread.start()
+            children.append(child)
+        deadline = time.monotonic() + timeout_s
+        while True:
+            codes = {c.role: c.proc.poll() for c in children}
+            failed = [c for c in children if codes[c.role] not in (None, 0)]
+            if failed:
+                c = failed[0]
+                _stop(children)
+                for ch in children:
+                    if ch.thread:
+                        ch.thread.join(timeout=2)
+                why = next((ln for ln in reversed(c.tail) if ln.strip()), "no output")
+                raise RunFailed(f"the {c.role} process exited with code {codes[c.role]} ({why}); "
+                                f"the others were stopped. Log: {c.log_path}")
+            if all(code == 0 for code in codes.values()):
+                break
+            if interrupted.is_set():
+                _stop(children)
+                raise KeyboardInterrupt
+            if time.monotonic() > deadline:
+                _stop(children)
+                waiting = ", ".join(c.role for c in children if codes[c.role] is None)
+                raise RunFailed(f"the run did not end within {timeout_s:g} s (still running: {waiting}); all stopped")
+            time.sleep(0.1)
+        for c in children:
+            if c.thread:
+                c.thread.join(timeout=5)
+        return {c.role: c.proc.returncode for c in children}
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        for c in children:
+            if c.proc.poll() is None:
+                c.proc.kill()
+
+
+def write_summary(summary: dict, out_dir: Path) -> Path:
+    path = out_dir / "summary.json"
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
+    return path
