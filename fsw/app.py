@@ -71,6 +71,11 @@ def run_fsw(
             sub = tp.Subscriber(session, run_id, ALLOWED_TOPICS, decode=False, role="fsw", capacity=16384)
             server = tp.declare_command_server(session, run_id, core.command, threaded=False)
             refused = 0
+            core.extra_counters = lambda: {
+                "commands_malformed": int(server.status()["malformed"]),
+                "refused_topics": refused,
+                "transport_gaps": sum(sub.gaps.values()),
+            }
             try:
                 core.start()
                 last_data = time.monotonic()
@@ -95,13 +100,8 @@ def run_fsw(
                         next_progress = now + 2.0
                         progress(_progress_line(core))
                 core.finish(emit_end=False)
-                extra = {
-                    "refused_topics": refused,
-                    "transport_gaps": sum(sub.gaps.values()),
-                    "commands_malformed": int(server.status()["malformed"]),
-                }
                 # announce the per-topic counts so the logger can confirm it has everything
-                end = core.end_status({**extra, **tp.end_of_run_counts(tel.pubs.values())})
+                end = core.end_status(tp.end_of_run_counts(tel.pubs.values()))
                 tel(topics.FSW_STATUS, end)
                 counts = dict(end.counts)
                 done = tp.drain(session, run_id, end, consumers, timeout_s=30.0)

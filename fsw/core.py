@@ -108,6 +108,8 @@ class FswCore:
         self._last_anomaly: tuple | None = None
         self._last_t = init.t_s
         self.finished = False
+        #: counters of the process around the core (e.g. malformed telecommands), in status replies
+        self.extra_counters: Callable[[], dict[str, int]] | None = None
         self._last_overruns = 0
         self._next_idle_report = init.t_s
         self.frames_reported = 0
@@ -273,7 +275,10 @@ class FswCore:
         c["commands_ok"] = self.counters.commands_ok
         c["commands_rejected"] = self.counters.commands_rejected
         c["backlog"] = int(self.executive.backlog)
+        c["pending"] = int(self.executive.pending_jobs)  # queued, due or not yet due
         c["rejected"] = c.get("rejected", 0) + c["decode_errors"] + c["bank_rejected"]
+        if self.extra_counters is not None:
+            c.update(self.extra_counters())
         return c
 
     def _emit_status(self, state: str, t: float, message: str = "") -> None:

@@ -22,6 +22,10 @@ COMMANDS = (
     "tools.commands.sim",
     "tools.commands.fsw",
     "tools.commands.ground",
+    "tools.commands.bench",
+    "tools.commands.report",
+    "tools.commands.campaign",
+    "tools.commands.calibrate",
 )
 
 

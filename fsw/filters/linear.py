@@ -205,6 +205,19 @@ class LinearFilterBank:
 
     def _advance(self, z: np.ndarray, t: float, seq: int, kind: str, predict: bool) -> BankRecord:
         n = self.F.shape[-1]
+        if self._all_active and self._no_gate and kind in self._every_filter_processes:
+            # the common case, kept free of bookkeeping: every filter active and updating
+            A, At, C = (self._A, self._At, self._C) if predict else (self._B, self._Bt, self._D)
+            Mt = A @ self._PX @ At
+            Mt += C
+            Mt[:, n:, n] += z  # [−x̄; −ŷ] + [0; z] = [−x̄; z̄]
+            PX_new, residual, S, chi2, _ = kalman.update(Mt, n)
+            self._updates += 1
+            if self._updates % self.SYMMETRISE_EVERY == 0:
+                PX_new[:, :, :n] = kalman.symmetrise(PX_new[:, :, :n])
+            self._PX = PX_new
+            self.t = t = float(t)
+            return BankRecord(t, int(seq), kind, self.names, residual, S, chi2, self._all_true, self._all_true)
         a = self.active
         every = self._all_active
         A, At, C = (self._A, self._At, self._C) if predict else (self._B, self._Bt, self._D)

@@ -59,6 +59,12 @@ def save(fig: Any, path: Path) -> Path:
     return path
 
 
+def finish(fig: Any, path: Path | None) -> Any:
+    """Write ``fig`` to ``path`` and return the path; without a path return the figure itself
+    (to inspect what was drawn)."""
+    return fig if path is None else save(fig, Path(path))
+
+
 def slug(text: str) -> str:
     """A file-name-safe form of a filter or network name."""
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "x"

@@ -61,6 +61,7 @@ class AnomalyTrace:
     threshold: np.ndarray
     flag: np.ndarray
     declarations: list[m.AnomalyReport] = field(default_factory=list)  # first report of each rise of the flag
+    reports: list[m.AnomalyReport] = field(default_factory=list)  # all of them, by epoch
 
 
 @dataclass
@@ -209,6 +210,7 @@ def _anomaly(reports: list[m.AnomalyReport]) -> AnomalyTrace:
         threshold=np.array([r.threshold for r in reports], dtype=float),
         flag=np.array([r.flag for r in reports], dtype=bool),
         declarations=decl,
+        reports=reports,
     )
 
 

@@ -9,7 +9,8 @@
 * ``budget.png`` — frame utilisation and backlog of the executive;
 * ``measurements.png`` — which measurement kinds arrived when, coloured by station/target.
 
-Every figure is ~10×4 in at 120 dpi with days since the start of the run on the x axis.
+Every figure is ~10×4 in at 120 dpi with days since the start of the run on the x axis. Each
+``plot_*`` writes its PNG and returns the path, or returns the Figure when given no path.
 """
 
 from __future__ import annotations
@@ -36,15 +37,15 @@ def _event_lines(ax: Any, data: RunData, *, estimated_onset: bool = True) -> Non
         seen.add(label)
 
     for ev in data.faults:
-        if ev.event == "start":
-            vline(ev.t_s, f"fault onset ({ev.fault_type})", color="crimson", linestyle="--")
-        else:
-            vline(ev.t_s, f"fault end ({ev.fault_type})", color="crimson", linestyle=":")
+        verb = "onset" if ev.event == "start" else "end"
+        vline(ev.t_s, f"fault {verb} day {data.day(ev.t_s):.2f} ({ev.fault_type})", color="crimson",
+              linestyle="--" if ev.event == "start" else ":")
     if data.anomaly is not None:
         for r in data.anomaly.declarations:
-            vline(declared_epoch(r), f"anomaly declared: {r.anomaly_class}", color="black", linestyle="-")
+            t = declared_epoch(r)
+            vline(t, f"anomaly declared day {data.day(t):.2f}: {r.anomaly_class}", color="black", linestyle="-")
             if estimated_onset and r.onset_s is not None:
-                vline(r.onset_s, "estimated onset", color="dimgray", linestyle="-.")
+                vline(r.onset_s, f"estimated onset day {data.day(r.onset_s):.2f}", color="dimgray", linestyle="-.")
 
 
 def _time_axis(ax: Any, data: RunData) -> None:
@@ -52,7 +53,7 @@ def _time_axis(ax: Any, data: RunData) -> None:
     ax.grid(True, which="major", alpha=0.3)
 
 
-def plot_weights(data: RunData, network: str, path: Path) -> Path:
+def plot_weights(data: RunData, network: str, path: Path | None = None) -> Any:
     """Weights of ``network`` vs time on a linear 0–1 axis; steps, since weights hold between updates."""
     trace = data.weights[network]
     fig, ax = F.new_figure()
@@ -71,10 +72,10 @@ def plot_weights(data: RunData, network: str, path: Path) -> Path:
     _time_axis(ax, data)
     ax.set_title(f"Gating network '{network}': filter weights ({len(days)} updates)")
     F.legend_outside(ax)
-    return F.save(fig, path)
+    return F.finish(fig, path)
 
 
-def plot_position_error(data: RunData, label: str, path: Path) -> Path:
+def plot_position_error(data: RunData, label: str, path: Path | None = None) -> Any:
     """Position error magnitude with the ±1σ / 3σ RTPC envelope, log axis (seed 001 Figs. 3–5)."""
     tr = data.position[label]
     fig, ax = F.new_figure()
@@ -87,12 +88,12 @@ def plot_position_error(data: RunData, label: str, path: Path) -> Path:
     _time_axis(ax, data)
     ax.grid(True, which="minor", alpha=0.12)
     inside = float(np.mean(tr.error <= 3.0 * tr.sigma)) if len(tr.error) else float("nan")
-    ax.set_title(f"Position error and uncertainty — {_estimate_name(label)} ({100 * inside:.0f} % of epochs within 3σ)")
+    ax.set_title(f"Position error vs RTPC — {_estimate_name(label)}: {100 * inside:.0f} % of epochs within 3σ")
     F.legend_outside(ax)
-    return F.save(fig, path)
+    return F.finish(fig, path)
 
 
-def plot_position_errors_all(data: RunData, path: Path) -> Path:
+def plot_position_errors_all(data: RunData, path: Path | None = None) -> Any:
     """Every estimate stream's position error on one log axis (which filter is best when)."""
     labels = [lb for lb in _ordered_estimates(data) if len(data.position[lb].t_s)]
     styles = F.filter_styles([lb for lb in labels if lb not in ("combined", "best")])
@@ -108,10 +109,10 @@ def plot_position_errors_all(data: RunData, path: Path) -> Path:
     ax.grid(True, which="minor", alpha=0.12)
     ax.set_title("Position error of every filter and of the combined / best solutions")
     F.legend_outside(ax)
-    return F.save(fig, path)
+    return F.finish(fig, path)
 
 
-def plot_clock_phase(data: RunData, label: str, path: Path) -> Path:
+def plot_clock_phase(data: RunData, label: str, path: Path | None = None) -> Any:
     """Estimated minus true clock phase with its 1σ / 3σ bounds, in microseconds (seed 001 Fig. 14)."""
     tr = data.clock[label]
     fig, ax = F.new_figure()
@@ -127,10 +128,10 @@ def plot_clock_phase(data: RunData, label: str, path: Path) -> Path:
     _time_axis(ax, data)
     ax.set_title(f"Clock phase error and uncertainty — {_estimate_name(label)}")
     F.legend_outside(ax)
-    return F.save(fig, path)
+    return F.finish(fig, path)
 
 
-def plot_anomaly_statistic(data: RunData, path: Path) -> Path:
+def plot_anomaly_statistic(data: RunData, path: Path | None = None) -> Any:
     """Detection statistic vs its threshold, periods with the flag raised shaded."""
     an = data.anomaly
     assert an is not None
@@ -138,11 +139,11 @@ def plot_anomaly_statistic(data: RunData, path: Path) -> Path:
     days = data.day(an.t_s)
     ax.plot(days, an.statistic, drawstyle="steps-post", color="tab:blue", linewidth=1.5, marker="o", markersize=3,
             label="detection statistic D")
-    ax.plot(days, an.threshold, drawstyle="steps-post", color="tab:red", linestyle="--", linewidth=1.3, label="declaration threshold")
-    for start, end in _runs(an.flag):
-        t_end = days[end] if end < len(days) else days[-1]
-        ax.axvspan(days[start], t_end, color="gold", alpha=0.25, linewidth=0,
-                   label="flag raised" if start == _runs(an.flag)[0][0] else None)
+    ax.plot(days, an.threshold, drawstyle="steps-post", color="darkorange", linestyle="-", linewidth=1.6,
+            label="declaration threshold")
+    for k, (start, end) in enumerate(_runs(an.flag)):
+        t_end = days[end] if end < len(days) else max(days[-1], _last_day(data))
+        ax.axvspan(days[start], t_end, color="gold", alpha=0.25, linewidth=0, label="flag raised" if k == 0 else None)
     _event_lines(ax, data)
     top = np.nanmax(np.concatenate([an.statistic, an.threshold])) if len(days) else 1.0
     if np.isfinite(top) and top > 0 and np.nanmax(an.threshold, initial=0.0) > 0 and top / np.nanmax(an.threshold) > 20:
@@ -150,64 +151,78 @@ def plot_anomaly_statistic(data: RunData, path: Path) -> Path:
     ax.set_ylabel("statistic D [-]")
     _time_axis(ax, data)
     net = f" on '{an.network}' weights" if an.network else ""
-    ax.set_title(f"Anomaly detector{net}: statistic vs threshold ({len(an.declarations)} declaration(s))")
+    n = len(an.declarations)
+    ax.set_title(f"Anomaly detector{net}: statistic vs threshold, {n} declaration{'' if n == 1 else 's'}")
     F.legend_outside(ax)
-    return F.save(fig, path)
+    return F.finish(fig, path)
 
 
-def plot_budget(data: RunData, path: Path) -> Path:
+def plot_budget(data: RunData, path: Path | None = None) -> Any:
     """Utilisation per frame and backlog depth of the frame executive."""
     b = data.budget
     assert b is not None
     fig, (ax1, ax2) = F.new_figure(2, 1, size=(10.0, 5.0), sharex=True)
     days = data.day(b.t_s)
     busy = b.processed > 0
-    ax1.plot(days[busy], b.utilisation[busy], linestyle="none", marker=".", markersize=2.5, color="tab:blue", label="frames with work")
-    ax1.plot(days[~busy], b.utilisation[~busy], linestyle="none", marker=".", markersize=2.5, color="lightgray", label="idle frames")
+    # utilisation spans decades (idle frames ~0, busy frames up to overruns > 1): log axis
+    util = np.where(b.utilisation > 0, b.utilisation, np.nan)
+    ms = 2.5 if len(days) > FEW_POINTS * 10 else 6.0
+    ax1.semilogy(days[~busy], util[~busy], linestyle="none", marker=".", markersize=ms, color="silver", label="idle frames")
+    ax1.semilogy(days[busy], util[busy], linestyle="none", marker=".", markersize=ms, color="tab:blue", label="frames with work")
     ax1.axhline(1.0, color="tab:red", linestyle="--", linewidth=1.2, label="budget (100 %)")
-    ax1.set_ylabel("utilisation [used / budget]")
-    ax1.set_ylim(bottom=0.0, top=max(1.1, float(np.nanmax(b.utilisation, initial=0.0)) * 1.05))
+    ax1.set_ylabel("utilisation\n[used / budget]")
+    finite = util[np.isfinite(util)]
+    low = float(np.percentile(finite, 1)) if len(finite) else 1e-3
+    ax1.set_ylim(bottom=max(low * 0.5, 1e-6), top=max(2.0, float(np.nanmax(util, initial=0.0)) * 1.5))
     ax1.grid(True, alpha=0.3)
     unit = "scaled CPU s" if b.mode == "cpu" else "work units"
     ax1.set_title(f"Frame executive ({b.mode} budget, {unit}): {len(days)} frame reports, {b.overruns} overruns, "
                   f"{b.errors} errors, max backlog {int(b.backlog.max(initial=0))}")
-    F.legend_outside(ax1, markerscale=4)
+    F.legend_outside(ax1, markerscale=8.0 / ms)
     ax2.plot(days, b.backlog, drawstyle="steps-post", color="tab:purple", linewidth=1.4, label="backlog (jobs)")
     ax2.plot(days, b.deferred, drawstyle="steps-post", color="tab:olive", linewidth=1.0, alpha=0.8, label="stages deferred")
     ax2.set_ylabel("count [-]")
-    ax2.set_ylim(bottom=0.0, top=max(1.0, float(max(b.backlog.max(initial=0), b.deferred.max(initial=0)))) * 1.1)
+    peak = int(max(b.backlog.max(initial=0), b.deferred.max(initial=0)))
+    ax2.set_ylim(bottom=-0.05 * max(peak, 1), top=max(peak, 1) * 1.1)
     ax2.yaxis.get_major_locator().set_params(integer=True)
+    if peak == 0:
+        ax2.text(0.5, 0.5, "no backlog and no deferred stages during the run", transform=ax2.transAxes,
+                 ha="center", va="center", fontsize=10, color="dimgray")
     _time_axis(ax2, data)
     F.legend_outside(ax2)
-    return F.save(fig, path)
+    return F.finish(fig, path)
 
 
-def plot_measurements(data: RunData, path: Path) -> Path:
-    """Measurement timeline: one row per kind, one tick per measurement, coloured by station/target."""
+def plot_measurements(data: RunData, path: Path | None = None) -> Any:
+    """Measurement timeline: one row per kind, one tick per measurement; within a row each station
+    or target has its own lane and colour, so interleaved sources do not hide one another."""
+    from matplotlib.lines import Line2D
+
     kinds = list(data.measurements)
-    fig, ax = F.new_figure(size=(10.0, max(2.4, 1.0 + 0.8 * len(kinds))))
+    fig, ax = F.new_figure(size=(10.0, max(2.6, 1.2 + 0.9 * len(kinds))))
     sources = sorted({s for _, src in data.measurements.values() for s in src})
     colors = {s: F._PALETTE[i % len(F._PALETTE)] for i, s in enumerate(sources)}
     for row, kind in enumerate(kinds):
         t, src = data.measurements[kind]
-        for s in sorted(set(src)):
+        lanes = sorted(set(src))
+        height = 0.8 / len(lanes)
+        for k, s in enumerate(lanes):
             sel = src == s
-            ax.plot(data.day(t[sel]), np.full(int(sel.sum()), row), linestyle="none", marker="|", markersize=14,
-                    markeredgewidth=0.8, color=colors[s], label=s)
-    handles, labels = ax.get_legend_handles_labels()
-    unique = dict(zip(labels, handles))
+            y = row + ((len(lanes) - 1) / 2.0 - k) * height  # alphabetical top-down, like the legend
+            ax.plot(data.day(t[sel]), np.full(int(sel.sum()), y), linestyle="none", marker="|",
+                    markersize=max(3.0, 40.0 * height), markeredgewidth=0.8, color=colors[s])
     ax.set_yticks(range(len(kinds)), [f"{k}\n({len(data.measurements[k][0])})" for k in kinds])
     ax.set_ylim(-0.6, len(kinds) - 0.4)
     _event_lines(ax, data, estimated_onset=False)
     handles, labels = ax.get_legend_handles_labels()
-    for h, lb in zip(handles, labels):
-        unique.setdefault(lb, h)
+    proxies = [Line2D([], [], linestyle="none", marker="s", markersize=7, color=colors[s]) for s in sources]
     _time_axis(ax, data)
-    ax.set_ylabel("measurement kind (count)")
+    ax.grid(False, axis="y")
+    ax.set_ylabel("measurement kind\n(count)")
     total = sum(len(t) for t, _ in data.measurements.values())
     ax.set_title(f"Measurement timeline: {total} measurements by kind and station / target")
-    ax.legend(unique.values(), unique.keys(), loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=9)
-    return F.save(fig, path)
+    ax.legend(proxies + handles, sources + labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=9)
+    return F.finish(fig, path)
 
 
 def write_run_figures(messages: Iterable[Any] | RunData, out_dir: str | Path, *, t0: float | None = None) -> list[Path]:
@@ -241,8 +256,14 @@ def _ordered_estimates(data: RunData, traces: dict | None = None) -> list[str]:
     return order + sorted(lb for lb in traces if lb not in order)
 
 
+def _last_day(data: RunData) -> float:
+    """Last epoch with data (days), so a flag still raised at the end is shaded to the end."""
+    ends = [float(t[-1]) for t, _ in data.measurements.values() if len(t)]
+    return float(data.day(max(ends))) if ends else 0.0
+
+
 def _estimate_name(label: str) -> str:
-    return {"combined": "weighted combined solution", "best": "highest-weight filter's solution"}.get(label, f"filter '{label}'")
+    return {"combined": "'combined' (weighted sum)", "best": "'best' (highest-weight filter)"}.get(label, f"filter '{label}'")
 
 
 def _positive(x: np.ndarray) -> np.ndarray:

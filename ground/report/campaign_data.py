@@ -1,0 +1,318 @@
+"""A campaign directory read for reporting: ``runs.jsonl`` rows grouped into cases.
+
+Each row of ``runs.jsonl`` is one run's summary (the dictionary ``navbank run`` writes to
+``summary.json``: ``fault``, ``anomaly``, ``gating.<network>.mean_weights``, ...) plus ``id``,
+``cell``, ``seed`` and ``status``. ``cell`` is ``{scenario, fault, variant}`` or its text key
+``"scenario / fault / variant"``. Rows whose status is not a success, or that lack the summary,
+are counted as failed and left out of every statistic.
+
+Scoring (per run, from its summary's ``anomaly`` block):
+
+* detected — an anomaly was declared at or after the true onset (a declaration before the onset
+  is a false alarm, even in a faulted run);
+* diagnosed class — the declared class, ``none`` if nothing was declared;
+* latency — declaration epoch minus true onset.
+
+Detection probabilities carry Wilson score intervals (Wilson 1927), which stay inside [0, 1] and
+behave at 0 and n successes, unlike the normal approximation.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fsw.interface.messages import ANOMALY_CLASSES
+
+RUNS_FILE = "runs.jsonl"
+SUMMARY_FILE = "summary.json"
+OK_STATUSES = frozenset({"ok", "done", "complete", "completed", "success", "succeeded", "cached", "reused"})
+SIZES = ("small", "medium", "large")
+
+
+class CampaignReadError(ValueError):
+    """A campaign directory without a readable runs.jsonl."""
+
+
+@dataclass
+class Campaign:
+    path: Path
+    rows: list[dict]  # successful runs
+    failed: list[dict] = field(default_factory=list)
+    bad_lines: int = 0  # lines of runs.jsonl that were not JSON objects
+    summary: dict | None = None  # summary.json, if present
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read ``runs.jsonl`` (and ``summary.json`` when present) from a campaign directory."""
+    path = Path(path)
+    runs = path / RUNS_FILE
+    if not runs.is_file():
+        raise CampaignReadError(f"{path}: no {RUNS_FILE} (not a campaign directory)")
+    rows, failed, bad = [], [], 0
+    with runs.open(encoding="utf-8") as f:
+        for line in f:
+            line = line.strip()
+            if not line:
+                continue
+            try:
+                row = json.loads(line)
+            except ValueError:
+                bad += 1  # a line cut short by a campaign still being written
+                continue
+            if not isinstance(row, dict):
+                bad += 1
+            elif is_ok(row):
+                rows.append(row)
+            else:
+                failed.append(row)
+    summary = None
+    if (path / SUMMARY_FILE).is_file():
+        try:
+            summary = json.loads((path / SUMMARY_FILE).read_text(encoding="utf-8"))
+        except ValueError:
+            summary = None
+    return Campaign(path=path, rows=rows, failed=failed, bad_lines=bad, summary=summary)
+
+
+def is_ok(row: dict) -> bool:
+    status = row.get("status")
+    ok_status = status is None or str(status).lower() in OK_STATUSES
+    return ok_status and isinstance(row.get("anomaly"), dict)
+
+
+def cell_parts(row: dict) -> dict[str, str]:
+    """``{scenario, fault, variant}`` of a row (missing parts from the summary, else '')."""
+    cell = row.get("cell")
+    parts: dict[str, str] = {}
+    if isinstance(cell, dict):
+        parts = {k: str(cell.get(k, "")) for k in ("scenario", "fault", "variant")}
+    elif isinstance(cell, str):
+        pieces = [p.strip() for p in cell.split(" / ")]
+        if len(pieces) == 3:
+            parts = dict(zip(("scenario", "fault", "variant"), pieces))
+        else:
+            parts = {"scenario": "", "fault": cell, "variant": ""}
+    parts.setdefault("scenario", str(row.get("scenario", "")))
+    if not parts.get("fault"):
+        fault = row.get("fault") or {}
+        parts["fault"] = str(fault.get("preset") or fault.get("class") or "none")
+    parts.setdefault("variant", "")
+    return parts
+
+
+def case_of(row: dict) -> str:
+    return cell_parts(row)["fault"]
+
+
+def variant_of(row: dict) -> str:
+    return cell_parts(row)["variant"]
+
+
+def split_size(case: str) -> tuple[str, str | None]:
+    """``optical-bias-medium`` → (``optical-bias``, ``medium``); cases without a size → (case, None)."""
+    for size in SIZES:
+        if case.endswith("-" + size):
+            return case[: -len(size) - 1], size
+    return case, None
+
+
+def true_class(row: dict) -> str:
+    a = row.get("anomaly") or {}
+    return str(a.get("true_class") or (row.get("fault") or {}).get("class") or "none")
+
+
+def is_faulted(row: dict) -> bool:
+    return true_class(row) != "none"
+
+
+def detected(row: dict) -> bool:
+    a = row["anomaly"]
+    return bool(a.get("declared")) and not bool(a.get("false_alarm"))
+
+
+def false_alarm(row: dict) -> bool:
+    a = row["anomaly"]
+    return bool(a.get("declared")) and (bool(a.get("false_alarm")) or not is_faulted(row))
+
+
+def diagnosed_class(row: dict) -> str:
+    a = row["anomaly"]
+    return str(a.get("class") or "unknown") if a.get("declared") else "none"
+
+
+def latency_h(row: dict) -> float | None:
+    a = row["anomaly"]
+    lat = a.get("latency_s")
+    return None if lat is None or not detected(row) else float(lat) / 3600.0
+
+
+def wilson_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval for k successes in n trials (``(nan, nan)`` for n = 0)."""
+    if n <= 0:
+        return float("nan"), float("nan")
+    from statistics import NormalDist
+
+    z = NormalDist().inv_cdf(0.5 + confidence / 2.0)
+    p = k / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+@dataclass
+class CaseStats:
+    """Detection statistics of one fault case (in one network variant)."""
+
+    case: str
+    variant: str
+    true_class: str
+    n: int
+    detections: int
+    false_alarms: int
+    correct_class: int
+    latencies_h: list[float]
+    show_variant: bool = False  # the campaign has more than one network variant
+
+    @property
+    def faulted(self) -> bool:
+        return self.true_class != "none"
+
+    @property
+    def rate(self) -> float:
+        """Detection probability (faulted case) or false-alarm rate (nominal case)."""
+        k = self.detections if self.faulted else self.false_alarms
+        return k / self.n if self.n else float("nan")
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        return wilson_interval(self.detections if self.faulted else self.false_alarms, self.n)
+
+    @property
+    def label(self) -> str:
+        return f"{self.case} [{self.variant}]" if self.variant and self.show_variant else self.case
+
+
+def _ordered(keys: Iterable[str]) -> list[str]:
+    """Cases in a reading order: nominal first, then by family and size small → large."""
+    def key(c: str) -> tuple:
+        fam, size = split_size(c)
+        return (c != "none", fam, SIZES.index(size) if size else -1, c)
+
+    return sorted(set(keys), key=key)
+
+
+def cases(rows: list[dict]) -> list[str]:
+    return _ordered(case_of(r) for r in rows)
+
+
+def variants(rows: list[dict]) -> list[str]:
+    seen: list[str] = []
+    for r in rows:
+        v = variant_of(r)
+        if v not in seen:
+            seen.append(v)
+    return seen
+
+
+def case_stats(rows: list[dict]) -> list[CaseStats]:
+    """Detection statistics per (variant, fault case)."""
+    out = []
+    several = len(variants(rows)) > 1
+    for var in variants(rows):
+        vrows = [r for r in rows if variant_of(r) == var]
+        for case in cases(vrows):
+            rs = [r for r in vrows if case_of(r) == case]
+            tc = true_class(rs[0])
+            out.append(CaseStats(
+                case=case, variant=var, true_class=tc, n=len(rs),
+                detections=sum(detected(r) for r in rs),
+                false_alarms=sum(false_alarm(r) for r in rs),
+                correct_class=sum(detected(r) and diagnosed_class(r) == true_class(r) for r in rs),
+                latencies_h=[lat for r in rs if (lat := latency_h(r)) is not None],
+                show_variant=several,
+            ))
+    return out
+
+
+def confusion(rows: list[dict]) -> tuple[tuple[str, ...], np.ndarray]:
+    """Counts of (injected class, diagnosed class) over runs; rows injected, columns diagnosed."""
+    classes = list(ANOMALY_CLASSES)
+    for r in rows:
+        for c in (true_class(r), diagnosed_class(r)):
+            if c not in classes:
+                classes.append(c)
+    idx = {c: i for i, c in enumerate(classes)}
+    mat = np.zeros((len(classes), len(classes)), dtype=int)
+    for r in rows:
+        mat[idx[true_class(r)], idx[diagnosed_class(r)]] += 1
+    return tuple(classes), mat
+
+
+def networks(rows: list[dict]) -> list[str]:
+    seen: list[str] = []
+    for r in rows:
+        for net in (r.get("gating") or {}):
+            if net not in seen:
+                seen.append(net)
+    return seen
+
+
+@dataclass
+class MeanWeights:
+    """Mean weight per filter per case for one network: ``mean[c, f]`` over the case's runs,
+    ``std`` their spread, ``n`` the runs that had the network."""
+
+    network: str
+    variant: str
+    cases: list[str]
+    filters: list[str]
+    mean: np.ndarray
+    std: np.ndarray
+    n: np.ndarray
+
+
+def mean_weights(rows: list[dict], network: str, variant: str = "", which: str = "mean_weights") -> MeanWeights | None:
+    """Mean of each run's ``gating.<network>.<which>`` per case (``which``: ``mean_weights`` —
+    full arc, as seed 001 Tables 3/4 — or ``mean_weights_after_onset``, falling back to the full
+    arc for nominal runs, which have no onset)."""
+    rs = [r for r in rows if variant_of(r) == variant and network in (r.get("gating") or {})]
+    if not rs:
+        return None
+    case_list = cases(rs)
+    filters: list[str] = []
+    per_case: dict[str, list[dict[str, float]]] = {c: [] for c in case_list}
+    for r in rs:
+        g = r["gating"][network]
+        w = g.get(which) or (g.get("mean_weights") if not is_faulted(r) else None)
+        if not w:
+            continue
+        filters.extend(f for f in w if f not in filters)
+        per_case[case_of(r)].append(w)
+    if not filters:
+        return None
+    case_list = [c for c in case_list if per_case[c]]
+    mean = np.full((len(case_list), len(filters)), np.nan)
+    std = np.full_like(mean, np.nan)
+    n = np.zeros(len(case_list), dtype=int)
+    for i, c in enumerate(case_list):
+        W = np.array([[w.get(f, np.nan) for f in filters] for w in per_case[c]], dtype=float)
+        n[i] = len(W)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a filter absent from every run of a case
+            mean[i] = np.nanmean(W, axis=0)
+            std[i] = np.nanstd(W, axis=0) if len(W) > 1 else 0.0
+    return MeanWeights(network, variant, case_list, filters, mean, std, n)
+
+
+def describe_rows(rows: list[dict]) -> dict[str, Any]:
+    """A few headline numbers of a campaign."""
+    return {"runs": len(rows), "cases": len(cases(rows)), "variants": variants(rows), "networks": networks(rows)}

@@ -1,0 +1,181 @@
+"""``report.md``: the summary tables of a run or a campaign, with links to its figures.
+
+A run's table comes from its ``summary.json`` when one sits next to the MCAP file (the numbers
+``navbank run`` printed), otherwise from :func:`ground.report.run_facts.run_facts` on the
+messages. Missing entries are shown as "–", never an error: a summary from an older or partial
+run still renders.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ground.report import campaign_data as C
+
+REPORT_FILE = "report.md"
+DASH = "–"
+
+
+def _num(v: Any, fmt: str = ".3g") -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return DASH
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float)):
+        return format(v, fmt)
+    return str(v)
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:
+    def esc(x: Any) -> str:
+        return str(x).replace("|", "\\|")
+
+    out = ["| " + " | ".join(esc(h) for h in header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(esc(c) for c in row) + " |" for row in rows]
+    return out
+
+
+def _figures(paths: Sequence[Path], out_dir: Path, captions: dict[str, str]) -> list[str]:
+    lines: list[str] = []
+    for p in paths:
+        rel = Path(os.path.relpath(Path(p).resolve(), out_dir.resolve()))
+        stem = Path(p).stem
+        caption = next((c for prefix, c in captions.items() if stem.startswith(prefix)), stem)
+        lines += [f"### {caption}: `{stem}`", "", f"![{stem}]({rel.as_posix()})", ""]
+    return lines
+
+
+RUN_CAPTIONS = {
+    "weights_": "Gating-network weights",
+    "position_error_all": "Position error, all filters",
+    "position_error_": "Position error vs RTPC",
+    "clock_phase_": "Clock phase error",
+    "anomaly_statistic": "Anomaly detector",
+    "budget": "CPU budget",
+    "measurements": "Measurement timeline",
+}
+
+CAMPAIGN_CAPTIONS = {
+    "mean_weights_after_onset": "Mean weights after onset",
+    "mean_weights": "Mean weights (seed 001 Tables 3/4)",
+    "confusion_matrix": "Diagnosis",
+    "detection_latency": "Detection latency",
+    "detection_probability": "Detection probability",
+}
+
+
+def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source: str, facts_from: str) -> str:
+    """Markdown text of a run report."""
+    s = facts
+    lines = [f"# navbank run report: {source}", ""]
+    fault = s.get("fault") or {}
+    starts = [e for e in fault.get("events", []) if e.get("event") == "start"]
+    rows: list[list[str]] = [
+        ["scenario", _num(s.get("scenario"))],
+        ["seed", _num(s.get("seed"))],
+        ["fault case", _num(fault.get("preset") or fault.get("class"))],
+    ]
+    for ev in starts:
+        mag = ", ".join(f"{k} {v:g}" for k, v in (ev.get("magnitude") or {}).items())
+        rows.append(["injected", f"{ev.get('type')} ({mag}) on day {_num(ev.get('day'), '.2f')}"])
+    mc = s.get("measurements") or {}
+    rows.append(["measurements", f"{_num(mc.get('published'), 'd')} published, {_num(mc.get('processed'), 'd')} processed, "
+                                 f"{_num(mc.get('rejected'), 'd')} rejected, {_num(mc.get('lost'), 'd')} lost"])
+    a = s.get("anomaly") or {}
+    if a.get("declared"):
+        verdict = ("FALSE ALARM (before any injected fault)" if a.get("false_alarm") else
+                   ("diagnosis correct" if a.get("correct_class") else f"diagnosis WRONG (injected {a.get('true_class')})"))
+        lat = a.get("latency_s")
+        lat_txt = f", {lat / 3600.0:.1f} h after the true onset" if lat is not None else ""
+        rows.append(["anomaly", f"declared on day {_num(a.get('time_day'), '.2f')} by {a.get('network')}: {a.get('class')} "
+                                f"(confidence {_num(a.get('confidence'), '.2f')}){lat_txt}; {verdict}"])
+    elif a.get("onset_true") is not None:
+        rows.append(["anomaly", f"none declared: MISSED the injected {a.get('true_class')} fault"])
+    else:
+        rows.append(["anomaly", "none declared (none injected)"])
+    b = s.get("budget") or {}
+    if b:
+        rows.append(["budget", f"{b.get('mode')}: max utilisation {_num(b.get('max_utilisation'), '.2f')}, "
+                               f"{_num(b.get('overruns'), 'd')} overruns, max backlog {_num(b.get('max_backlog'), 'd')}, "
+                               f"final backlog {_num(b.get('final_backlog'), 'd')}"])
+    lines += _table(["item", "value"], rows) + ["", f"Numbers from {facts_from}.", ""]
+
+    gating = s.get("gating") or {}
+    if gating:
+        filters = list(s.get("filters") or [])
+        for g in gating.values():
+            filters += [f for f in g.get("mean_weights", {}) if f not in filters]
+        lines += ["## Mean filter weights", ""]
+        wrows = []
+        for net, g in gating.items():
+            for key, label in (("mean_weights", "full arc"), ("mean_weights_before_onset", "before onset"),
+                               ("mean_weights_after_onset", "after onset"), ("final_weights", "final")):
+                if key in g:
+                    wrows.append([net, label] + [_num(g[key].get(f), ".3f") for f in filters])
+        lines += _table(["network", "span"] + filters, wrows) + [""]
+    pos = s.get("position_error_rms_km") or {}
+    if pos:
+        fin = s.get("position_error_final_km") or {}
+        w3 = s.get("position_within_3sigma") or {}
+        lines += ["## Position error", ""]
+        lines += _table(["solution", "RMS [km]", "final [km]", "epochs within 3σ"],
+                        [[k, _num(v, ".3g"), _num(fin.get(k), ".3g"), _num(None if w3.get(k) is None else 100 * w3[k], ".0f") + " %"]
+                         for k, v in pos.items()]) + [""]
+    if figures:
+        lines += ["## Figures", ""] + _figures(figures, out_dir, RUN_CAPTIONS)
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def campaign_markdown(camp: C.Campaign, figures: Sequence[Path], out_dir: Path) -> str:
+    """Markdown text of a campaign report."""
+    rows = camp.rows
+    lines = [f"# navbank campaign report: {camp.path.name}", ""]
+    lines += [f"{len(rows)} successful runs, {len(camp.failed)} failed"
+              + (f", {camp.bad_lines} unreadable lines in {C.RUNS_FILE}" if camp.bad_lines else "")
+              + f"; {len(C.cases(rows))} fault cases; networks: {', '.join(C.networks(rows)) or DASH}.", ""]
+    stats = C.case_stats(rows)
+    if stats:
+        lines += ["## Detection per fault case", ""]
+        trows = []
+        for st in stats:
+            lo, hi = st.interval
+            rate = f"{_num(st.rate, '.2f')} [{_num(lo, '.2f')}, {_num(hi, '.2f')}]"
+            lat = sorted(st.latencies_h)
+            trows.append([st.label, st.true_class, st.n,
+                          rate if st.faulted else DASH,
+                          f"{st.false_alarms}/{st.n}",
+                          f"{st.correct_class}/{st.detections}" if st.faulted else DASH,
+                          _num(lat[len(lat) // 2], ".1f") if lat else DASH])
+        lines += _table(["case", "injected class", "runs", "P(detect) [95 % CI]", "false alarms", "correct class / detected",
+                         "median latency [h]"], trows)
+        lines += ["", "P(detect): declared at or after the true onset. A declaration before the onset is a false alarm, "
+                      "even in a faulted run. Intervals: Wilson score, 95 %.", ""]
+    for var in C.variants(rows):
+        for net in C.networks(rows):
+            mw = C.mean_weights(rows, net, var)
+            if mw is None:
+                continue
+            title = f"## Mean '{net}' weights over the full arc" + (f" (variant {var})" if len(C.variants(rows)) > 1 and var else "")
+            lines += [title, ""]
+            lines += _table(["case", "runs"] + mw.filters,
+                            [[c, int(mw.n[i])] + [_num(mw.mean[i, f], ".4f") for f in range(len(mw.filters))]
+                             for i, c in enumerate(mw.cases)]) + [""]
+    if camp.failed:
+        lines += ["## Failed runs", ""]
+        lines += _table(["id", "cell", "status", "error"],
+                        [[r.get("id", DASH), " / ".join(C.cell_parts(r).values()), r.get("status", DASH),
+                          str(r.get("error", ""))[:120]] for r in camp.failed[:50]]) + [""]
+    if figures:
+        lines += ["## Figures", ""] + _figures(figures, out_dir, CAMPAIGN_CAPTIONS)
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def write_markdown(text: str, out_dir: str | Path) -> Path:
+    path = Path(out_dir) / REPORT_FILE
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return path

@@ -1,0 +1,117 @@
+"""The headline facts of a run, computed from its messages when no ``summary.json`` is at hand.
+
+The dictionary has the keys and meaning of the run summary that ``navbank run`` writes (fault,
+measurements, filters, gating, anomaly, position_error_*, budget), so the Markdown report renders
+either one. Only what the messages themselves carry is filled in: scenario and seed are None.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ground.report.run_data import DAY_S, RunData, declared_epoch
+
+
+def _weights(data: RunData) -> dict[str, dict[str, Any]]:
+    onset = data.onset_s
+    out: dict[str, dict[str, Any]] = {}
+    for net, tr in data.weights.items():
+        if not len(tr.t_s):
+            continue
+        names = tr.filters
+
+        def mean(sel: np.ndarray) -> dict[str, float]:
+            return {n: float(v) for n, v in zip(names, np.nanmean(tr.weights[sel], axis=0))}
+
+        entry: dict[str, Any] = {"mean_weights": mean(np.ones(len(tr.t_s), dtype=bool)), "updates": int(len(tr.t_s))}
+        if onset is not None:
+            before = tr.t_s < onset
+            if before.any():
+                entry["mean_weights_before_onset"] = mean(before)
+            if (~before).any():
+                entry["mean_weights_after_onset"] = mean(~before)
+        entry["final_weights"] = {n: float(v) for n, v in zip(names, tr.weights[-1])}
+        out[net] = entry
+    return out
+
+
+def _anomaly(data: RunData) -> dict[str, Any]:
+    onset = data.onset_s
+    starts = data.fault_starts
+    true_class = min(starts, key=lambda e: e.t_s).fault_class if starts else "none"
+    a: dict[str, Any] = {
+        "declared": False, "time": None, "time_day": None, "onset_true": onset,
+        "onset_true_day": None if onset is None else (onset - data.t0) / DAY_S,
+        "onset_estimate": None, "latency_s": None, "class": "none", "true_class": true_class,
+        "confidence": 0.0, "network": data.anomaly.network if data.anomaly else None,
+        "false_alarm": False, "correct_class": None,
+        "final_flag": bool(data.anomaly.flag[-1]) if data.anomaly is not None and len(data.anomaly.flag) else False,
+        "final_class": data.anomaly.reports[-1].anomaly_class if data.anomaly is not None and data.anomaly.reports else "none",
+    }
+    first = data.first_declaration
+    if first is None:
+        return a
+    t_decl = declared_epoch(first)
+    a.update(declared=True, time=t_decl, time_day=(t_decl - data.t0) / DAY_S, onset_estimate=first.onset_s,
+             network=first.network or a["network"], first_class=first.anomaly_class)
+    # the class the detector settled on is that of its last report with the flag raised
+    flagged = [i for i, f in enumerate(data.anomaly.flag) if f] if data.anomaly is not None else []
+    a["class"] = first.anomaly_class
+    a["confidence"] = float(first.confidence)
+    if flagged and data.anomaly is not None and data.anomaly.reports:
+        last = data.anomaly.reports[flagged[-1]]
+        a["class"], a["confidence"] = last.anomaly_class, float(last.confidence)
+    if onset is None or t_decl < onset:
+        a["false_alarm"] = True
+    else:
+        a["latency_s"] = t_decl - onset
+        a["latency_day"] = (t_decl - onset) / DAY_S
+    a["correct_class"] = a["class"] == true_class
+    return a
+
+
+def _budget(data: RunData) -> dict[str, Any]:
+    b = data.budget
+    if b is None or not len(b.t_s):
+        return {}
+    busy = b.processed > 0
+    return {
+        "reports": int(len(b.t_s)), "mode": b.mode, "overruns": int(b.overruns), "errors": int(b.errors),
+        "max_utilisation": float(b.utilisation.max()),
+        "mean_utilisation_busy": float(b.utilisation[busy].mean()) if busy.any() else 0.0,
+        "max_backlog": int(b.backlog.max()), "final_backlog": int(b.backlog[-1]),
+    }
+
+
+def run_facts(data: RunData) -> dict[str, Any]:
+    """Summary-shaped facts of a run (see the module docstring)."""
+    pos_rms, pos_final, within = {}, {}, {}
+    for label, tr in data.position.items():
+        if len(tr.error):
+            pos_rms[label] = float(math.sqrt(np.mean(tr.error**2)))
+            pos_final[label] = float(tr.error[-1])
+            within[label] = float(np.mean(tr.error <= 3.0 * tr.sigma))
+    fsw = data.status.get("fsw")
+    counts = fsw.counts if fsw is not None else {}
+    published = sum(len(t) for t, _ in data.measurements.values())
+    return {
+        "scenario": None,
+        "seed": None,
+        "run_id": data.run_id,
+        "fault": {"preset": None, "class": _anomaly(data)["true_class"],
+                  "events": [{"id": e.fault_id, "type": e.fault_type, "event": e.event, "t_s": e.t_s,
+                              "day": (e.t_s - data.t0) / DAY_S, "magnitude": dict(e.magnitude)} for e in data.faults]},
+        "measurements": {"published": published, "processed": int(counts.get("processed", 0)),
+                         "rejected": int(counts.get("rejected", 0)), "lost": int(counts.get("lost", 0)),
+                         "by_kind": {k: len(t) for k, (t, _) in data.measurements.items()}},
+        "filters": list(data.filters),
+        "gating": _weights(data),
+        "anomaly": _anomaly(data),
+        "position_error_rms_km": pos_rms,
+        "position_error_final_km": pos_final,
+        "position_within_3sigma": within,
+        "budget": _budget(data),
+    }

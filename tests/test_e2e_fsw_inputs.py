@@ -1,0 +1,120 @@
+"""The FSW process under bad input: malformed measurements and telecommands are rejected and
+counted, never fatal — a real `navbank fsw` process over real Zenoh on loopback."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+import pytest
+
+from fsw.interface import codec, messages as m, topics, transport as tp
+from sim.stream import generate
+from tools.scenario import load_scenario, resolve
+
+SCENARIO = """\
+name: fsw-inputs
+seed: 5
+sim:
+  trajectory: {span_days: 2.0}
+fsw:
+  gating:
+    - {network: chi2, batch_size: 50}
+"""
+
+
+@pytest.fixture()
+def fsw_process(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(SCENARIO)
+    port_fsw, port_me = tp.free_tcp_ports(2)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tools.cli", "fsw", "--scenario", str(path), "--run-id", "inputs", "--consumers", "",
+         "--listen", f"tcp/127.0.0.1:{port_fsw}", "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    me = tp.TransportConfig(listen=(f"tcp/127.0.0.1:{port_me}",), connect=(f"tcp/127.0.0.1:{port_fsw}",), connect_timeout_s=20.0)
+    yield proc, path, me
+    if proc.poll() is None:
+        proc.kill()
+        proc.wait()
+
+
+def _measurement_json(msg: m.Measurement, **changes) -> bytes:
+    data = json.loads(codec.to_json(msg))
+    data.update(changes)
+    return json.dumps(data).encode()
+
+
+def test_malformed_measurements_and_commands_are_counted_not_fatal(fsw_process):
+    proc, path, me = fsw_process
+    cfg, seed = resolve(load_scenario(str(path)))
+    good = generate(cfg.sim, seed=seed).measurements[:300]
+    with tp.open_session(me) as session:
+        tp.wait_for_consumers(session, "inputs", ["fsw"], timeout_s=60)
+        pub = tp.Publisher(session, "inputs", topics.SIM_MEASUREMENTS)
+        status_pub = tp.Publisher(session, "inputs", topics.SIM_STATUS)
+        bad = [
+            b"\x00\xffnot json at all",
+            b'{"hello": "world"}',
+            _measurement_json(good[10], value=[float("nan")]).replace(b"NaN", b"NaN"),
+            _measurement_json(good[11], value=[1.0, 2.0], sigma=[1.0, 1.0]),  # range with 2 components
+            _measurement_json(good[12], kind="lidar"),
+        ]
+        for i, meas in enumerate(good):
+            pub.put(meas)
+            if i == 100:
+                for payload in bad:
+                    pub.put_payload(payload)
+                pub.put(good[50])  # a duplicate of one already processed
+        time.sleep(0.5)
+
+        # telecommands: valid ones work, bad ones get error replies, the process carries on
+        status = tp.send_command(session, "inputs", m.Telecommand(id="s1", command="status"), timeout_s=10)
+        assert status.ok and status.id == "s1"
+        junk = tp.send_command_payload(session, "inputs", b"\x01\x02garbage", timeout_s=10)
+        assert not junk.ok and "malformed" in junk.error
+        unknown = tp.send_command_payload(session, "inputs", b'{"id": "u", "command": "self-destruct"}', timeout_s=10)
+        assert not unknown.ok and unknown.id == "u"
+        nan = tp.send_command_payload(session, "inputs", b'{"id": "n", "command": "set-param", "network": "chi2", '
+                                      b'"param": "sigma_w", "value": NaN}', timeout_s=10)
+        assert not nan.ok
+        neg = tp.send_command(session, "inputs", m.Telecommand(id="v", command="set-param", network="chi2",
+                                                              param="sigma_w", value=-1.0), timeout_s=10)
+        assert not neg.ok and neg.id == "v"
+        nofilter = tp.send_command(session, "inputs", m.Telecommand(id="f", command="disable-filter", filter="nope"),
+                                   timeout_s=10)
+        assert not nofilter.ok
+        ok = tp.send_command(session, "inputs", m.Telecommand(id="p", command="set-param", network="chi2",
+                                                             param="sigma_w", value=0.1), timeout_s=10)
+        assert ok.ok, ok.error
+        reset = tp.send_command(session, "inputs", m.Telecommand(id="r", command="reset-gating", network="chi2"),
+                                timeout_s=10)
+        assert reset.ok, reset.error
+
+        deadline = time.monotonic() + 60
+        while True:  # the FSW takes measurements at its own pace; wait until it has them all
+            after = tp.send_command(session, "inputs", m.Telecommand(id="s2", command="status"), timeout_s=10)
+            assert after.ok
+            if after.status["received"] + after.status["decode_errors"] >= len(good) + 6 or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        assert after.status["decode_errors"] == 5
+        assert after.status["duplicates"] == 1
+        assert after.status["received"] == len(good) + 1  # the duplicate was received, then refused
+        # data drive time: the newest measurements wait for a frame ending after their time tag
+        assert after.status["processed"] + after.status["pending"] == len(good)
+        assert after.status["commands_rejected"] == 2  # valid commands that could not be done: -1, unknown filter
+        assert after.status["commands_malformed"] == 3  # garbage, unknown command, NaN value
+
+        end = m.RunStatus(t_s=good[-1].t_s, timestamp=good[-1].timestamp, run_id="inputs", source="sim",
+                          state="end-of-run", counts=tp.end_of_run_counts([pub]))
+        status_pub.put(end)
+        done = tp.drain(session, "inputs", end, ["fsw"], timeout_s=60)
+        assert done == {"fsw": True}
+        pub.close()
+        status_pub.close()
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err

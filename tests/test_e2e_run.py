@@ -1,0 +1,154 @@
+"""End to end: real `navbank run` processes over real Zenoh on loopback, real MCAP read back."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import jsonschema
+import pytest
+from mcap.reader import make_reader
+
+from ground.mcap_io.reader import read_messages
+
+SHORT = """\
+name: short-e2e
+description: four-day approach slice with a large optical bias from day 1.5
+seed: 2
+sim:
+  trajectory: {span_days: 4.0}
+  faults:
+    - {type: optical-bias, onset_day: 1.5, sample_px: 20.0, line_px: 30.0}
+fsw:
+  gating:
+    - {network: chi2, batch_size: 300}
+    - {network: magill}
+"""
+
+LONG = SHORT.replace("span_days: 4.0", "span_days: 30.0")
+
+
+def _navbank(*args: str, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "tools.cli", *args], capture_output=True, text=True, **kw)
+
+
+@pytest.fixture(scope="module")
+def short_run(tmp_path_factory):
+    d = tmp_path_factory.mktemp("run")
+    scen = d / "short.yaml"
+    scen.write_text(SHORT)
+    out = d / "out"
+    t0 = time.monotonic()
+    proc = _navbank("run", "--scenario", str(scen), "--out", str(out), "--quiet", timeout=300)
+    return proc, out, time.monotonic() - t0
+
+
+def test_run_exits_cleanly_and_writes_its_files(short_run):
+    proc, out, wall = short_run
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    for name in ("run.mcap", "summary.json", "config.yaml", "sim.log", "fsw.log", "ground.log"):
+        assert (out / name).is_file(), name
+    assert "position error RMS" in proc.stdout
+    # the saved config is complete and re-runnable
+    assert _navbank("validate", str(out / "config.yaml"), timeout=120).returncode == 0
+
+
+def test_every_measurement_arrives_exactly_once(short_run):
+    _, out, _ = short_run
+    seqs = [r.message.seq for r in read_messages(out / "run.mcap", topics=["/sim/measurements"])]
+    assert seqs == list(range(len(seqs)))
+    assert len(seqs) > 2000
+    summary = json.loads((out / "summary.json").read_text())
+    m = summary["measurements"]
+    assert m["published"] == len(seqs) == m["processed"]
+    assert m["lost"] == 0 and m["rejected"] == 0
+
+
+def test_expected_topics_with_valid_schemas(short_run):
+    _, out, _ = short_run
+    want = {"/sim/measurements", "/sim/truth", "/sim/faults", "/sim/status", "/fsw/weights/chi2",
+            "/fsw/weights/magill", "/fsw/estimate/fused", "/fsw/estimate/combined", "/fsw/budget", "/fsw/status"}
+    seen: dict[str, int] = {}
+    with open(out / "run.mcap", "rb") as f:
+        reader = make_reader(f)
+        validators = {}
+        for schema, channel, message in reader.iter_messages():
+            assert channel.message_encoding == "json"
+            assert schema is not None and schema.encoding == "jsonschema"
+            if channel.topic not in validators:
+                validators[channel.topic] = jsonschema.Draft202012Validator(json.loads(schema.data))
+            n = seen.get(channel.topic, 0)
+            if n < 50:  # validate a sample of every channel
+                validators[channel.topic].validate(json.loads(message.data))
+            seen[channel.topic] = n + 1
+            assert message.log_time > 1.5e18 and message.publish_time > 1.5e18
+    assert want <= set(seen), want - set(seen)
+
+
+def test_summary_is_consistent_with_the_mcap(short_run):
+    _, out, _ = short_run
+    summary = json.loads((out / "summary.json").read_text())
+    weights = [r.message for r in read_messages(out / "run.mcap", topics=["/fsw/weights/chi2"])]
+    n = len(weights)
+    assert summary["gating"]["chi2"]["updates"] == n
+    for i, name in enumerate(weights[0].filters):
+        mean = sum(w.weights[i] for w in weights) / n
+        assert summary["gating"]["chi2"]["mean_weights"][name] == pytest.approx(mean, abs=1e-12)
+    faults = [r.message for r in read_messages(out / "run.mcap", topics=["/sim/faults"])]
+    assert summary["anomaly"]["onset_true"] == faults[0].t_s
+    assert summary["fault"]["class"] == "optical-measurement"
+    # a large optical bias: the chi2 network prefers the radio-only filter after onset
+    after = summary["gating"]["chi2"]["mean_weights_after_onset"]
+    assert after["radio"] > 0.8 and after["radio"] > after["optical"] and after["radio"] > after["fused"]
+    budget = [r.message for r in read_messages(out / "run.mcap", topics=["/fsw/budget"])]
+    assert summary["budget"]["overruns"] == max(b.overruns for b in budget)
+    assert summary["budget"]["final_backlog"] == budget[-1].backlog == 0
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        text = (task / "children").read_text().split()
+        out.extend(int(t) for t in text)
+    return out
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return ""
+
+
+@pytest.mark.slow
+def test_killed_fsw_is_reported_and_the_run_stops(tmp_path):
+    scen = tmp_path / "long.yaml"
+    scen.write_text(LONG)
+    proc = subprocess.Popen([sys.executable, "-m", "tools.cli", "run", "--scenario", str(scen), "--out", str(tmp_path / "o"),
+                             "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        fsw_pid = None
+        deadline = time.monotonic() + 60
+        while fsw_pid is None and time.monotonic() < deadline:
+            for c in _children(proc.pid):
+                if " fsw " in _cmdline(c):
+                    fsw_pid = c
+            time.sleep(0.2)
+        assert fsw_pid is not None, "fsw child not found"
+        time.sleep(4.0)  # let it get going
+        os.kill(fsw_pid, signal.SIGKILL)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 1
+    assert "fsw process exited with code -9" in err
+    # the logger was stopped properly: its file is complete
+    from ground.mcap_io.reader import is_complete
+
+    assert is_complete(tmp_path / "o" / "run.mcap")

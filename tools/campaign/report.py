@@ -1,0 +1,128 @@
+"""``report.md``: the campaign statistics (``stats.compute``) as Markdown tables."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def _pct(x: float | None) -> str:
+    return "n/a" if x is None else f"{100.0 * x:.1f} %"
+
+
+def _ci(ci: list[float] | None, scale: float = 100.0, fmt: str = "{:.1f}") -> str:
+    if ci is None:
+        return ""
+    return f" [{fmt.format(scale * ci[0])}, {fmt.format(scale * ci[1])}]"
+
+
+def _num(x: float | None, fmt: str = "{:.3g}") -> str:
+    return "n/a" if x is None else fmt.format(x)
+
+
+def _table(header: list[str], rows: list[list[str]]) -> list[str]:
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return out + [""]
+
+
+def _binom(b: dict | None) -> str:
+    if not b or b.get("n", 0) == 0:
+        return "n/a"
+    return f"{b['k']}/{b['n']} = {_pct(b['rate'])}{_ci(b['ci'])}"
+
+
+def render(s: dict[str, Any]) -> str:
+    level = int(round(100 * s.get("confidence_level", 0.95)))
+    runs = s["runs"]
+    lines = [f"# Campaign {s.get('campaign') or ''}".rstrip(), ""]
+    if s.get("description"):
+        lines += [s["description"], ""]
+    planned = "" if runs.get("planned") is None else f" of {runs['planned']} planned"
+    lines += [f"Runs: {runs['ok']} ok, {runs['failed']} failed{planned}"
+              + ("" if not runs.get("missing") else f", {runs['missing']} not run yet")
+              + f"; total run time {runs.get('wall_time_s_total', 0.0) / 60:.1f} min. "
+              f"Intervals are {level} % (Clopper–Pearson for proportions, exact Poisson for rates).", ""]
+
+    lines += ["## Detection", ""]
+    hdr = ["scenario", "fault", "variant", "detector", "runs", "P_D", "false alarms / run", "false alarms / day",
+           "latency median [h]", "latency p90 [h]", "correct class"]
+    rows = []
+    for c in s["cells"]:
+        det = c.get("detector", {})
+        dname = det.get("network") or "?"
+        if not det.get("calibrated", True):
+            dname += " (uncalibrated)"
+        fa = c.get("false_alarm") or {}
+        per_day = fa.get("per_day")
+        lat = c.get("latency") or {}
+        rows.append([
+            c["scenario"], c["fault"], c["variant"], dname,
+            f"{c['runs']['ok']}" + (f" (+{c['runs']['failed']} failed)" if c["runs"]["failed"] else ""),
+            "—" if c["fault_class"] == "none" else _binom(c.get("detection")),
+            _binom(fa.get("per_run")),
+            "—" if not per_day or per_day.get("per_day") is None else
+            f"{per_day['per_day']:.3g}{_ci(per_day['ci'], 1.0, '{:.3g}')}",
+            _num(lat.get("median_h"), "{:.1f}"), _num(lat.get("p90_h"), "{:.1f}"),
+            "—" if c["fault_class"] == "none" else _binom(c.get("characterization")),
+        ])
+    lines += _table(hdr, rows)
+
+    if s.get("confusion"):
+        lines += ["## Characterization (rows: injected class, columns: diagnosed class)", ""]
+        for g in s["confusion"]:
+            lines += [f"**{g['scenario']} / {g['variant']}** (detector {g['detector']})", ""]
+            lines += _table(["injected \\ diagnosed", *g["diagnosed_classes"]],
+                            [[t, *[str(g["matrix"][t][d]) for d in g["diagnosed_classes"]]] for t in g["true_classes"]])
+
+    if s.get("weight_tables"):
+        lines += ["## Mean gating weights (full arc; seed 001 Tables 3 and 4 layout)", ""]
+        for t in s["weight_tables"]:
+            f = t["filters"]
+            lines += [f"**{t['network']}** — {t['scenario']} / {t['variant']}", ""]
+            body = [["Ideal", *[f"{1.0 / len(f):.4f}"] * len(f)]]
+            body += [[r["case"], *[_num((r["mean"] or {}).get(x), "{:.4f}") for x in f]] for r in t["rows"]]
+            lines += _table(["case", *f], body)
+            after = [r for r in t["rows"] if r.get("after_onset")]
+            if after:
+                lines += [f"after the fault onset ({t['network']}):", ""]
+                lines += _table(["case", *f], [[r["case"], *[_num(r["after_onset"].get(x), "{:.4f}") for x in f]]
+                                               for r in after])
+
+    lines += ["## Position error RMS [km] (mean / median / max over seeds)", ""]
+    labels: list[str] = []
+    for c in s["cells"]:
+        labels += [x for x in c.get("position_error_rms_km", {}) if x not in labels]
+    rows = []
+    for c in s["cells"]:
+        pe = c.get("position_error_rms_km", {})
+        rows.append([c["key"], *["n/a" if not pe.get(x) else
+                                 f"{pe[x]['mean']:.3g} / {pe[x]['median']:.3g} / {pe[x]['max']:.3g}" for x in labels]])
+    lines += _table(["cell", *labels], rows)
+
+    lines += ["## Budget and run time", ""]
+    rows = []
+    for c in s["cells"]:
+        b = c.get("budget", {})
+        w = c.get("wall_time_s") or {}
+        rows.append([c["key"], _num(b.get("max_utilisation"), "{:.3f}"), str(b.get("overruns_total", 0)),
+                     str(b.get("runs_with_overruns", 0)), _num(b.get("final_backlog_max"), "{:.0f}"),
+                     _num(w.get("mean"), "{:.1f}"), _num(w.get("max"), "{:.1f}")])
+    lines += _table(["cell", "max utilisation", "overruns", "runs with overruns", "max final backlog",
+                     "wall time mean [s]", "wall time max [s]"], rows)
+
+    failures = [(c["key"], f) for c in s["cells"] for f in c.get("failed", [])]
+    if failures:
+        lines += ["## Failed runs", ""]
+        lines += _table(["cell", "seed", "id", "error"],
+                        [[k, str(f["seed"]), f["id"], f"{f['type']}: {f['message']}".replace("|", "\\|")]
+                         for k, f in failures])
+    uncal: dict[str, int] = {}
+    for c in s["cells"]:
+        if c.get("note"):
+            net = (c.get("detector") or {}).get("network") or "?"
+            uncal[net] = uncal.get(net, 0) + 1
+    notes = [f"- detector network {net!r} is not calibrated in {n} cell(s): it cannot declare, so detection "
+             "and false-alarm statistics are n/a (calibrate it with `navbank calibrate`)" for net, n in uncal.items()]
+    if notes:
+        lines += ["## Notes", "", *notes, ""]
+    return "\n".join(lines).rstrip() + "\n"

@@ -1,0 +1,276 @@
+"""Campaign statistics, recomputed from the rows of ``runs.jsonl`` (the latest row of each id).
+
+Per cell (scenario x fault case x network variant):
+
+* probability of detection P_D = k/n over the cell's successful runs with an injected fault, where
+  k counts runs whose first declaration came at or after the true onset (a run that declared
+  before the onset is a false alarm, not a detection, whatever happened later), with its
+  Clopper–Pearson interval (exact binomial: the bounds are the Beta(k, n−k+1) and Beta(k+1, n−k)
+  quantiles);
+* false alarms on ``none`` cases: per run (runs with a declaration / runs, Clopper–Pearson), and
+  per day: declarations / exposure, where a run is exposed from its start to its first declaration
+  (or its end) — the maximum-likelihood rate of a Poisson process observed to its first event —
+  with the exact Poisson interval (chi-square quantiles). Fault cases report their pre-onset false
+  alarms per run;
+* detection latency (declaration − true onset) over detected runs: median and 90th percentile
+  (linear interpolation between order statistics, numpy's default);
+* characterization: a confusion matrix of injected class vs diagnosed class (``none`` when
+  nothing was declared) per scenario and variant, and the rate of correct classes among detections;
+* mean weight of each filter per fault case for every gating network (seed 001 Tables 3 and 4:
+  rows = fault cases, columns = filters; the mean over seeds of each run's full-arc mean, and of
+  its after-onset mean);
+* position error: each filter's RMS error per run, summarised as mean / median / max over seeds;
+* budget: the largest utilisation, overruns (total and runs with any), the largest final backlog;
+* wall time per run.
+
+Cells whose detector is not calibrated (the scenario has no ``fsw.detector.calibration`` for
+the detector network) cannot declare anything: their detection statistics are reported as n/a.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+from scipy import stats as sps
+
+from fsw.fdir.calibrate import clopper_pearson
+from fsw.interface.messages import ANOMALY_CLASSES
+from tools.campaign.store import PLAN, REPORT, RUNS, SUMMARY, read_rows, write_json_atomic, write_text_atomic
+
+LEVEL = 0.95
+NOMINAL = "none"
+DAY_S = 86400.0
+
+
+def binomial(k: int, n: int, level: float = LEVEL) -> dict[str, Any]:
+    """k successes in n trials: rate and Clopper–Pearson interval (None when n = 0)."""
+    if n == 0:
+        return {"k": 0, "n": 0, "rate": None, "ci": None}
+    lo, hi = clopper_pearson(k, n, level)
+    return {"k": int(k), "n": int(n), "rate": k / n, "ci": [lo, hi]}
+
+
+def poisson_rate(k: int, exposure: float, level: float = LEVEL) -> dict[str, Any]:
+    """k events in ``exposure`` (days): rate and the exact (Garwood) Poisson interval."""
+    if exposure <= 0.0:
+        return {"k": int(k), "exposure_days": exposure, "per_day": None, "ci": None}
+    a = 1.0 - level
+    lo = 0.0 if k == 0 else float(sps.chi2.ppf(a / 2.0, 2 * k)) / 2.0 / exposure
+    hi = float(sps.chi2.ppf(1.0 - a / 2.0, 2 * k + 2)) / 2.0 / exposure
+    return {"k": int(k), "exposure_days": float(exposure), "per_day": k / exposure, "ci": [lo, hi]}
+
+
+def spread(values: Iterable[float]) -> dict[str, Any] | None:
+    v = np.array([x for x in values if x is not None and np.isfinite(x)], dtype=float)
+    if v.size == 0:
+        return None
+    return {"n": int(v.size), "mean": float(v.mean()), "median": float(np.median(v)), "max": float(v.max()),
+            "min": float(v.min())}
+
+
+def latency_stats(latencies_s: Iterable[float]) -> dict[str, Any] | None:
+    """Median and 90th percentile of detection latencies, in hours."""
+    h = np.array(list(latencies_s), dtype=float) / 3600.0
+    if h.size == 0:
+        return None
+    p50, p90 = np.percentile(h, [50.0, 90.0])
+    return {"n": int(h.size), "median_h": float(p50), "p90_h": float(p90), "mean_h": float(h.mean()),
+            "min_h": float(h.min()), "max_h": float(h.max())}
+
+
+def _cell_key(row: dict) -> str:
+    c = row["cell"]
+    return f"{c['scenario']} / {c['fault']} / {c['variant']}"
+
+
+def _diagnosed(summary: dict) -> str:
+    a = summary["anomaly"]
+    return (a.get("class") or "unknown") if a.get("declared") else NOMINAL
+
+
+def _cell_stats(key: str, cell: dict, rows: list[dict], planned: int | None, level: float) -> dict[str, Any]:
+    ok = [r for r in rows if r.get("status") == "ok" and r.get("summary")]
+    failed = [r for r in rows if r.get("status") != "ok"]
+    fault_class = rows[0].get("fault_class", NOMINAL) if rows else NOMINAL
+    detector = rows[0].get("detector", {}) if rows else {}
+    calibrated = bool(detector.get("calibrated", True))
+    out: dict[str, Any] = {
+        "key": key, **cell, "fault_class": fault_class, "detector": detector,
+        "runs": {"planned": planned, "ok": len(ok), "failed": len(failed),
+                 "missing": None if planned is None else max(planned - len(ok) - len(failed), 0)},
+        "failed": [{"id": r["id"], "seed": r.get("seed"), "type": (r.get("error") or {}).get("type"),
+                    "message": (r.get("error") or {}).get("message")} for r in failed],
+        "seeds": sorted(r.get("seed") for r in ok),
+    }
+    anomalies = [r["summary"]["anomaly"] for r in ok]
+    if calibrated:
+        fa = [a for a in anomalies if a.get("declared") and a.get("false_alarm")]
+        if fault_class == NOMINAL:
+            exposure = 0.0
+            for r, a in zip(ok, anomalies):
+                span = float(r.get("span_days") or 0.0)
+                exposure += min(float(a["time_day"]), span) if a.get("declared") and a.get("time_day") is not None else span
+            out["false_alarm"] = {"per_run": binomial(len(fa), len(ok), level),
+                                  "per_day": poisson_rate(len(fa), exposure, level)}
+            out["detection"] = None
+        else:
+            det = [a for a in anomalies if a.get("declared") and not a.get("false_alarm")]
+            out["detection"] = binomial(len(det), len(ok), level)
+            out["false_alarm"] = {"per_run": binomial(len(fa), len(ok), level), "per_day": None,
+                                  "note": "declarations before the injected onset"}
+            out["latency"] = latency_stats(a["latency_s"] for a in det if a.get("latency_s") is not None)
+            out["characterization"] = binomial(sum(bool(a.get("correct_class")) for a in det), len(det), level)
+    else:
+        out["detection"] = None
+        out["false_alarm"] = None
+        out["note"] = f"detector network {detector.get('network')!r} not calibrated: no declarations possible"
+
+    labels: set[str] = set()
+    for r in ok:
+        labels.update(r["summary"].get("position_error_rms_km", {}))
+    order = ok[0]["summary"].get("filters", []) if ok else []
+    ordered = [f for f in order if f in labels] + sorted(labels - set(order))
+    out["position_error_rms_km"] = {lab: spread(r["summary"]["position_error_rms_km"].get(lab) for r in ok)
+                                    for lab in ordered}
+    budgets = [r["summary"].get("budget", {}) for r in ok]
+    out["budget"] = {
+        "max_utilisation": max((b.get("max_utilisation", 0.0) for b in budgets), default=None),
+        "overruns_total": int(sum(b.get("overruns", 0) for b in budgets)),
+        "runs_with_overruns": int(sum(1 for b in budgets if b.get("overruns", 0) > 0)),
+        "final_backlog_max": max((b.get("final_backlog", 0) for b in budgets), default=None),
+        "max_backlog": max((b.get("max_backlog", 0) for b in budgets), default=None),
+    }
+    out["wall_time_s"] = spread(r.get("wall_time_s") for r in rows if r.get("wall_time_s") is not None)
+    if out["wall_time_s"]:
+        out["wall_time_s"]["total"] = float(sum(r["wall_time_s"] for r in rows if r.get("wall_time_s") is not None))
+    weights: dict[str, Any] = {}
+    nets: list[str] = []
+    for r in ok:
+        nets += [n for n in r["summary"].get("gating", {}) if n not in nets]
+    for net in nets:
+        entries = [r["summary"]["gating"][net] for r in ok if net in r["summary"].get("gating", {})]
+        filters = list(entries[0]["mean_weights"])
+        weights[net] = {"filters": filters, "n": len(entries)}
+        for src, dst in (("mean_weights", "mean"), ("mean_weights_after_onset", "after_onset"),
+                         ("final_weights", "final")):
+            have = [e[src] for e in entries if src in e]
+            if have:
+                weights[net][dst] = {f: float(np.mean([h[f] for h in have if f in h])) for f in filters}
+    out["weights"] = weights
+    return out
+
+
+def _confusion(cells: list[dict], rows_by_cell: dict[str, list[dict]]) -> list[dict]:
+    groups: dict[tuple[str, str], dict] = {}
+    for c in cells:
+        if c.get("detection") is None and c.get("false_alarm") is None:
+            continue  # uncalibrated detector
+        g = groups.setdefault((c["scenario"], c["variant"]), {
+            "scenario": c["scenario"], "variant": c["variant"], "detector": c["detector"].get("network"),
+            "counts": defaultdict(lambda: defaultdict(int))})
+        for r in rows_by_cell[c["key"]]:
+            if r.get("status") != "ok" or not r.get("summary"):
+                continue
+            true = r.get("fault_class") or r["summary"]["anomaly"].get("true_class", NOMINAL)
+            g["counts"][true][_diagnosed(r["summary"])] += 1
+    out = []
+    for g in groups.values():
+        seen_true = set(g["counts"])
+        seen_diag = {d for row in g["counts"].values() for d in row}
+        classes = [c for c in ANOMALY_CLASSES if c in seen_true | seen_diag]
+        classes += sorted((seen_true | seen_diag) - set(classes))
+        true_classes = [c for c in classes if c in seen_true]
+        out.append({"scenario": g["scenario"], "variant": g["variant"], "detector": g["detector"],
+                    "true_classes": true_classes, "diagnosed_classes": classes,
+                    "matrix": {t: {d: int(g["counts"][t].get(d, 0)) for d in classes} for t in true_classes}})
+    return out
+
+
+def _weight_tables(cells: list[dict]) -> list[dict]:
+    tables: dict[tuple[str, str, str], dict] = {}
+    for c in cells:
+        for net, w in c.get("weights", {}).items():
+            t = tables.setdefault((c["scenario"], c["variant"], net), {
+                "scenario": c["scenario"], "variant": c["variant"], "network": net, "filters": list(w["filters"]),
+                "rows": []})
+            for f in w["filters"]:
+                if f not in t["filters"]:
+                    t["filters"].append(f)
+            t["rows"].append({"case": c["fault"], "n": w["n"], "mean": w.get("mean"),
+                              "after_onset": w.get("after_onset")})
+    return list(tables.values())
+
+
+def compute(rows: list[dict], plan: dict | None = None, *, level: float = LEVEL, bad_lines: int = 0,
+            torn_tail: bool = False) -> dict[str, Any]:
+    """Statistics of a campaign from its rows (all of them; the latest per id counts)."""
+    latest: dict[str, dict] = {}
+    for r in rows:
+        latest[r["id"]] = r
+    planned_by_cell: dict[str, int] = defaultdict(int)
+    cell_order: list[str] = []
+    cell_info: dict[str, dict] = {}
+    plan_ids: set[str] | None = None
+    if plan:
+        plan_ids = {r["id"] for r in plan.get("runs", [])}
+        for c in plan.get("cells", []):
+            cell_order.append(c["key"])
+            cell_info[c["key"]] = {"scenario": c["scenario"], "fault": c["fault"], "variant": c["variant"]}
+        for r in plan.get("runs", []):
+            planned_by_cell[r["cell"]] += 1
+    rows_by_cell: dict[str, list[dict]] = defaultdict(list)
+    for r in latest.values():
+        if plan_ids is not None and r["id"] not in plan_ids:
+            continue  # a row of an earlier version of the campaign (its cell was edited)
+        key = _cell_key(r)
+        rows_by_cell[key].append(r)
+        if key not in cell_info:
+            cell_order.append(key)
+            cell_info[key] = dict(r["cell"])
+    cells = [_cell_stats(k, cell_info[k], sorted(rows_by_cell.get(k, []), key=lambda r: r.get("seed", 0)),
+                         planned_by_cell.get(k) if plan else None, level) for k in cell_order]
+    counted = [r for rs in rows_by_cell.values() for r in rs]
+    return {
+        "campaign": (plan or {}).get("name") or (counted[0].get("campaign") if counted else None),
+        "description": (plan or {}).get("description", ""),
+        "generated_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "confidence_level": level,
+        "runs": {
+            "planned": len(plan_ids) if plan_ids is not None else None,
+            "ok": sum(1 for r in counted if r.get("status") == "ok"),
+            "failed": sum(1 for r in counted if r.get("status") != "ok"),
+            "missing": None if plan_ids is None else len(plan_ids - {r["id"] for r in counted}),
+            "stale_rows": len(latest) - len(counted),
+            "unreadable_lines": bad_lines, "torn_tail": torn_tail,
+            "wall_time_s_total": float(sum(r.get("wall_time_s") or 0.0 for r in counted)),
+        },
+        "cells": cells,
+        "confusion": _confusion(cells, rows_by_cell),
+        "weight_tables": _weight_tables(cells),
+    }
+
+
+def compute_directory(directory: str | Path, level: float = LEVEL) -> dict[str, Any]:
+    """Statistics of the campaign in ``directory`` (its runs.jsonl and, if present, plan.json)."""
+    import json
+
+    d = Path(directory)
+    if not (d / RUNS).exists():
+        raise FileNotFoundError(f"{d / RUNS}: no such file (not a campaign directory?)")
+    read = read_rows(d / RUNS)
+    plan = json.loads((d / PLAN).read_text()) if (d / PLAN).exists() else None
+    return compute(read.rows, plan, level=level, bad_lines=read.bad_lines, torn_tail=read.torn_tail)
+
+
+def write_outputs(directory: str | Path, summary: dict) -> tuple[Path, Path]:
+    """Write ``summary.json`` and ``report.md`` into the campaign directory."""
+    from tools.campaign.report import render
+
+    d = Path(directory)
+    write_json_atomic(d / SUMMARY, summary)
+    write_text_atomic(d / REPORT, render(summary))
+    return d / SUMMARY, d / REPORT
