@@ -90,3 +90,8 @@ def resolve(cfg: ScenarioConfig, seed: int | None = None) -> tuple[ScenarioConfi
 def to_yaml(cfg: ScenarioConfig, complete: bool = True) -> str:
     """YAML text of a scenario; ``complete`` writes every value, defaults included."""
     return dump_yaml(cfg, drop_defaults=not complete)
+
+
+def load_text_scenario(text: str, name: str = "<string>") -> ScenarioConfig:
+    """A scenario from YAML text (tests, scripts)."""
+    return load_text(ScenarioConfig, text, name)

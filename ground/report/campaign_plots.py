@@ -56,9 +56,14 @@ def plot_mean_weights(mw: C.MeanWeights, path: Path | None = None, *, after_onse
             if size is not None and size not in sizes_seen:
                 sizes_seen.append(size)
     ax.axhline(1.0 / nf, color="gray", linestyle=":", linewidth=1.0)
-    runs = {fam: ", ".join(f"{mw.n[i]}" for i, _ in members[fam]) for fam in families}
-    ax.set_xticks(range(len(families)), [f"{fam}\n({runs[fam]} run{'s' if sum(mw.n[i] for i, _ in members[fam]) > 1 else ''})"
-                                         for fam in families])
+    def tick(fam: str) -> str:
+        n = ", ".join(f"{mw.n[i]}" for i, _ in members[fam])
+        plural = "s" if sum(mw.n[i] for i, _ in members[fam]) > 1 else ""
+        # nominal runs have no onset, so their full-arc mean stands in (campaign_data.mean_weights)
+        arc = ", full arc" if after_onset and fam == "none" else ""
+        return f"{fam}\n({n} run{plural}{arc})"
+
+    ax.set_xticks(range(len(families)), [tick(fam) for fam in families])
     ax.set_ylim(0.0, 1.05)
     ax.set_ylabel("mean filter weight [-]")
     ax.set_xlabel("fault case")
@@ -112,14 +117,15 @@ def plot_latency(stats: list[C.CaseStats], path: Path | None = None) -> Any:
     fig, axes = F.new_figure(nrows, ncols, size=(10.0, 0.9 + 2.3 * nrows), sharex=True)
     axes = np.atleast_1d(axes).ravel()
     for ax, s in zip(axes, faulted):
+        title = f"{s.label}: {s.detections}/{s.n} detected"
         if s.latencies_h:
             ax.hist(s.latencies_h, bins=bins, color="tab:blue", edgecolor="black", linewidth=0.5)
             med = float(np.median(s.latencies_h))
             ax.axvline(med, color="tab:red", linestyle="--", linewidth=1.2)
-            ax.text(0.97, 0.93, f"median {med:.1f} h", transform=ax.transAxes, ha="right", va="top", fontsize=8, color="tab:red")
+            title += f", median {med:.1f} h"
         else:
             ax.text(0.5, 0.5, "no detection", transform=ax.transAxes, ha="center", va="center", color="dimgray")
-        ax.set_title(f"{s.label}: {s.detections}/{s.n} detected", fontsize=9)
+        ax.set_title(title, fontsize=9)
         ax.yaxis.get_major_locator().set_params(integer=True)
         ax.grid(True, alpha=0.3)
     for ax in axes[len(faulted):]:
@@ -129,7 +135,7 @@ def plot_latency(stats: list[C.CaseStats], path: Path | None = None) -> Any:
             ax.set_ylabel("runs")
         if ax.get_subplotspec().is_last_row() or not axes[min(len(faulted) - 1, len(axes) - 1)].get_visible():
             ax.set_xlabel("latency after true onset [h]")
-    fig.suptitle("Detection latency per fault case (declaration epoch − true onset)")
+    fig.suptitle("Detection latency per fault case (declaration epoch − true onset; dashed: median)")
     return F.finish(fig, path)
 
 
