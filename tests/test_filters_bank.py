@@ -170,7 +170,8 @@ def test_process_noise_bank_resets_polynomial_batches_daily(run):
     bank = _bank(run, "process-noise-q")
     L = bank.stack.layout
     a = L.slices["accel"]
-    t_boundary = (np.floor(bank.t / 86400.0) + 1) * 86400.0
+    o = bank.stack.batch_origin  # the bank's initial epoch unless configured
+    t_boundary = o + (np.floor((bank.t - o) / 86400.0) + 1) * 86400.0
     bank.propagate_to(t_boundary - 1.0)
     bank.stack.P[:, a, a] *= 0.25  # as if measurements had shrunk it
     bank.propagate_to(t_boundary)  # the boundary is applied on arrival
@@ -184,7 +185,8 @@ def test_ecrv_batch_step_matches_seed_000_eq_25_26(run):
     bank = _bank(run)
     s = bank.stack.layout.index("srp_stoch")
     bank.stack.x[:, s] = 0.02
-    t_boundary = (np.floor(bank.t / 86400.0) + 1) * 86400.0
+    o = bank.stack.batch_origin  # the bank's initial epoch unless configured
+    t_boundary = o + (np.floor((bank.t - o) / 86400.0) + 1) * 86400.0
     bank.propagate_to(t_boundary - 1.0)
     p_before = bank.stack.P[0, s, s]
     bank.propagate_to(t_boundary + 1.0)

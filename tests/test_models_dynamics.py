@@ -24,7 +24,7 @@ def test_rk4_trajectory_matches_dop853(hours_before_entry, span_h):
     t_e = st.t
     t0 = t_e - hours_before_entry * 3600.0
     r0, v0, _ = st.propagator.propagate(t_e, t0, st.x[:, 0:3], st.x[:, 3:6], st.drivers(), with_stm=False)
-    q = np.array([[0.05, 0.3]])
+    q = np.array([[0.05, 0.3, 0.02, -0.03]])  # SRP scale, ACS magnitude, ACS tilts
     t1 = t0 + span_h * 3600.0
     r1, v1, _ = st.propagator.propagate(t0, t1, r0, v0, q, with_stm=False)
 

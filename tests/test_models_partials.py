@@ -34,6 +34,7 @@ def _stack(hours_before_entry: float, **cfg) -> EKFStack:
     st.x[0, L.slices["srp_stoch"]] = -0.02
     st.x[0, L.slices["acs_bias"]] = 0.5
     st.x[0, L.slices["acs_stoch"]] = 0.3
+    st.x[0, L.slices["acs_tilt"]] = (0.04, -0.03)
     st.x[0, L.slices["accel"]] = np.linspace(-4e-12, 6e-12, L.slices["accel"].stop - L.slices["accel"].start)
     c = L.slices["clock"].start
     st.x[0, c : c + 3] = (2e-6, 3e-13, 4e-21)
@@ -42,7 +43,7 @@ def _stack(hours_before_entry: float, **cfg) -> EKFStack:
 
 
 def _steps(st: EKFStack, pos: float, vel: float = 1e-2, srp: float = 0.1, acs: float = 1.0, accel: float = 1e-10,
-           phase: float = 1e-6) -> np.ndarray:
+           phase: float = 1e-6, tilt: float = 0.05) -> np.ndarray:
     """Central-difference steps: large enough to rise above the rounding of the measurement
     (a range of 2e8 km carries 3e-8 km of it), small enough for truncation; the model is
     close to linear in the force parameters, so those steps can be large."""
@@ -52,6 +53,7 @@ def _steps(st: EKFStack, pos: float, vel: float = 1e-2, srp: float = 0.1, acs: f
     h[3:6] = vel
     h[L.slices["srp_bias"]] = h[L.slices["srp_stoch"]] = srp
     h[L.slices["acs_bias"]] = h[L.slices["acs_stoch"]] = acs
+    h[L.slices["acs_tilt"]] = tilt
     h[L.slices["accel"]] = accel
     c = L.slices["clock"].start
     h[c : c + 3] = (phase, 1e-10, 1e-15)
@@ -108,7 +110,7 @@ def test_doppler_partials(hours):
     st = _stack(hours)
     t = st.t
     h, H = st.predict_doppler("DSS-43", t, 60.0, st.x)
-    steps = _steps(st, 1e4 if hours > 100 else 1e3, srp=10.0, acs=100.0, accel=1e-5, phase=1e-3)
+    steps = _steps(st, 1e4 if hours > 100 else 1e3, srp=10.0, acs=100.0, accel=1e-5, phase=1e-3, tilt=100.0)
     H_fd = _fd(lambda x: st.predict_doppler("DSS-43", t, 60.0, x)[0], st.x, steps)
     _check(H, H_fd, _sigma(st))
 
@@ -162,7 +164,7 @@ def test_acceleration_partials_against_finite_differences():
         np.testing.assert_allclose(G[0, :, j], fd[0], rtol=1e-6, atol=1e-9 * np.abs(G).max())
     for j in range(q.shape[1]):
         dq = np.zeros_like(q)
-        dq[0, j] = 1e-3 if j < 2 else 1e-11
+        dq[0, j] = 1e-3 if j < 4 else 1e-11
         fd = (acceleration(r, q + dq, bodies, s, st.forces)[0] - acceleration(r, q - dq, bodies, s, st.forces)[0]) / (2 * dq[0, j])
         np.testing.assert_allclose(dadq[0, :, j], fd[0], rtol=1e-6, atol=1e-12 * np.abs(dadq[0, :, j]).max() + 1e-30)
 
@@ -173,14 +175,14 @@ def test_state_transition_matrix_against_finite_differences():
     r, v, q = st.x[:, 0:3], st.x[:, 3:6], st.drivers()
     _, _, Y = st.propagator.propagate(t0, t1, r, v, q)
     z = np.concatenate([r, v, q], axis=1)
-    steps = np.concatenate([np.full(3, 1e-2), np.full(3, 1e-5), [1e-2, 1e-2], np.full(q.shape[1] - 2, 1e-11)])
+    steps = np.concatenate([np.full(3, 1e-2), np.full(3, 1e-5), [1e-2, 1e-2, 1e-2, 1e-2], np.full(q.shape[1] - 4, 1e-11)])
 
     def final(zz):
         r1, v1, _ = st.propagator.propagate(t0, t1, zz[:, 0:3], zz[:, 3:6], zz[:, 6:], with_stm=False)
         return np.concatenate([r1, v1], axis=1)[:, :, None][:, :, 0]
 
     fd = _fd(final, z, steps)  # (1, 6, 6 + nq)
-    scale = np.concatenate([np.full(3, 100.0), np.full(3, 1e-4), [0.1, 0.1], np.full(q.shape[1] - 2, 5e-12)])
+    scale = np.concatenate([np.full(3, 100.0), np.full(3, 1e-4), [0.1, 0.1, 0.05, 0.05], np.full(q.shape[1] - 4, 5e-12)])
     for i in range(6):
         ref = np.max(np.abs(Y[0, i] * scale))
         assert np.max(np.abs((Y[0, i] - fd[0, i]) * scale)) / ref < 1e-6

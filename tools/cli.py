@@ -22,6 +22,7 @@ COMMANDS = (
     "tools.commands.sim",
     "tools.commands.fsw",
     "tools.commands.ground",
+    "tools.commands.replay",
     "tools.commands.bench",
     "tools.commands.report",
     "tools.commands.campaign",
@@ -70,4 +71,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # `python -m tools.cli`: run the importable module's main, so that the exception classes the
+    # subcommands raise (tools.cli.UsageError) are the ones caught here
+    from tools.cli import main as _main
+
+    sys.exit(_main())

@@ -10,6 +10,11 @@ best-filter estimate (seed 001 §2).
 A measurement the bank cannot use (NaN, unknown kind or source, wrong size, time running
 backwards, ...) raises :class:`MeasurementRejected` before any filter state is touched and is
 counted in ``bank.rejected`` by reason.
+
+Measurement noise R is the reported sigma (times the filter's ``sigma_scale``) squared; a
+one-way Doppler count also carries the onboard clock's own short-term instability over the
+count, which the reported (thermal) sigma does not include and the clock states cannot
+represent (:meth:`fsw.filters.ekf.EKFStack.doppler_clock_variance`).
 """
 
 from __future__ import annotations
@@ -21,7 +26,6 @@ from typing import Any
 
 import numpy as np
 
-from fsw.astro.ephemeris import EphemerisError
 from fsw.astro.stations import StationError
 from fsw.filters.combine import best_index, normalised_weights, weighted_estimate
 from fsw.filters.config import FILTER_KINDS, BankConfig
@@ -60,6 +64,9 @@ class FilterEstimate:
     @property
     def sigma(self) -> np.ndarray:
         return np.sqrt(np.clip(np.diag(self.P), 0.0, None))
+
+
+_EYES = {m: np.eye(m) for m in range(1, 7)}
 
 
 class FilterBank:
@@ -178,10 +185,8 @@ class FilterBank:
         t = float(meas.t_s)
         if t < self.t - self.TIME_TOLERANCE_S:
             raise MeasurementRejected("out_of_order", f"time tag {t} is before the bank epoch {self.t}")
-        try:
-            self.stack.env.states_ssb(t)
-        except EphemerisError as exc:
-            raise MeasurementRejected("out_of_range", str(exc)) from None
+        if not self.stack.env.covers(t):
+            raise MeasurementRejected("out_of_range", f"time tag {t} is outside the onboard ephemeris")
         source = getattr(meas, "source", None)
         if meas.kind in ("range", "doppler"):
             try:
@@ -236,8 +241,9 @@ class FilterBank:
             raise MeasurementRejected("geometry", str(exc)) from None
         scale = self._sigma_scale[meas.kind]
         var = (sigma[None, :] * scale[:, None]) ** 2
-        R = np.zeros((self.size, sigma.size, sigma.size))
-        R[:, np.arange(sigma.size), np.arange(sigma.size)] = var
+        if meas.kind == "doppler":
+            var += self.stack.doppler_clock_variance(float(meas.count_time_s))[:, None]
+        R = var[:, :, None] * _EYES[sigma.size] if sigma.size in _EYES else var[:, :, None] * np.eye(sigma.size)
         does = self._process_masks[meas.kind] & self.active
         gate = None if np.all(np.isinf(self._gate)) else self._gate
         residual, S, chi2, processed = self.stack.update(value, h, H, R, does, gate)

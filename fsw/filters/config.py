@@ -3,7 +3,7 @@
 Defaults are seed 001 Table 1 (the nominal InSight approach filter): position 100 km and
 velocity 0.1 m/s a priori (diagonal); SRP scale factor 0.11 bias + 0.03 temporal (1-day
 batches, 7-day correlation); ACS acceleration magnitude 3 % bias + 5 % temporal (1-day batches,
-uncorrelated). The spacecraft constants (SRP area, mass, Cr; ACS nominal magnitude and thrust
+uncorrelated); ACS thrust orientation 3° (constant random bias). The spacecraft constants (SRP area, mass, Cr; ACS nominal magnitude and thrust
 direction) and the camera are those of the InSight-like scenario; a filter's knowledge of them
 is part of its model and can differ from the truth.
 """
@@ -54,6 +54,10 @@ class AcsConfig:
     )
     magnitude: BatchedParameterConfig = spec(
         BatchedParameterConfig(0.03, 0.05, DAY_S, None), doc="magnitude bias and daily part, fractions of nominal"
+    )
+    direction_sigma_deg: float = spec(
+        3.0, doc="1-sigma constant thrust-direction error per axis across the direction; 0 drops the two tilt states",
+        unit="deg", ge=0.0, le=20.0,
     )
 
     def __post_init__(self) -> None:
@@ -135,6 +139,7 @@ class FilterConfig:
     sigma_scale: dict[str, float] = spec(default_factory=dict, doc="multiplier on the reported sigma, per kind")
     camera: CameraConfig = spec(CameraConfig(), doc="camera model")
     gate_chi2: float | None = spec(None, doc="edit (do not process) a measurement with chi-square above this", gt=0.0)
+    high_q: bool = spec(False, doc="carries inflated dynamic process noise (a -Q filter of seed 001 §4.4)")
 
     def __post_init__(self) -> None:
         bad = [k for k in self.processes if k not in FILTER_KINDS]
@@ -153,7 +158,10 @@ class BankConfig:
     maneuvers: tuple[ManeuverModelConfig, ...] = spec((), doc="modelled impulsive manoeuvres")
     step_fraction: float = spec(0.02, doc="integration step as a fraction of the local dynamical time", unit="1", gt=0.0, le=0.2)
     max_step_s: float = spec(600.0, doc="largest integration step", unit="s", gt=0.0)
-    batch_origin_tdb_s: float = spec(0.0, doc="epoch from which batch boundaries are counted", unit="s")
+    batch_origin_tdb_s: float | None = spec(
+        None, doc="epoch from which batch boundaries are counted; null: the bank's initial epoch (the start of "
+        "the arc, from which the spacecraft's own daily ACS activity is scheduled)", unit="s"
+    )
 
     def __post_init__(self) -> None:
         names = [f.name for f in self.filters]

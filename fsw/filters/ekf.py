@@ -32,8 +32,10 @@ from fsw.models.forces import ForceParameters, srp_coefficient
 from fsw.models.layout import StateLayout
 from fsw.models.optical import optical
 from fsw.models.propagator import Propagator
-from fsw.models.radiometric import uplink
+from fsw.models.radiometric import uplink, uplinks
 from fsw.models.stochastic import apply_ecrv_step, batch_boundaries, ecrv_factors
+
+_EYE3 = np.eye(3)
 
 
 def union_layout(filters: tuple[FilterConfig, ...]) -> StateLayout:
@@ -43,6 +45,7 @@ def union_layout(filters: tuple[FilterConfig, ...]) -> StateLayout:
     return StateLayout.build(
         srp=srp,
         acs=acs,
+        acs_tilt=any(f.acs.direction_sigma_deg > 0 for f in filters),
         poly_degree=degrees[0] if degrees else None,
         clock=max(f.clock.components for f in filters),
         range_bias=any(f.range_bias_sigma_km > 0 for f in filters),
@@ -107,6 +110,8 @@ class EKFStack:
             if L.has("acs_bias"):
                 sig[i, L.slices["acs_bias"]] = f.acs.magnitude.bias_sigma
                 sig[i, L.slices["acs_stoch"]] = f.acs.magnitude.temporal_sigma
+            if L.has("acs_tilt"):
+                sig[i, L.slices["acs_tilt"]] = math.radians(f.acs.direction_sigma_deg)
             if L.has("accel"):
                 sig[i, L.slices["accel"]] = f.accel.sigma_km_s2
             if L.has("clock"):
@@ -121,17 +126,27 @@ class EKFStack:
         self.P = np.zeros((N, n, n))
         self.P[:, np.arange(n), np.arange(n)] = sig**2
 
+        origin = self.t if config.batch_origin_tdb_s is None else float(config.batch_origin_tdb_s)
+        self.batch_origin = origin
         self.forces = ForceParameters(
             srp_coefficient=np.array([srp_coefficient(f.srp.area_m2, f.srp.mass_kg, f.srp.cr) for f in cfgs]),
             acs_nominal=np.array([f.acs.nominal_km_s2 for f in cfgs]),
             acs_direction=np.array([np.asarray(f.acs.direction_body) / np.linalg.norm(f.acs.direction_body) for f in cfgs]),
             poly_degree=L.poly_degree,
             poly_batch_s=np.array([f.accel.batch_length_s for f in cfgs]),
-            poly_origin_s=config.batch_origin_tdb_s,
+            poly_origin_s=origin,
         )
         self.propagator = Propagator(self.env, self.forces, config.step_fraction, config.max_step_s)
         self._q_cols = L.q_columns
-        origin = config.batch_origin_tdb_s
+        nq = L.n_q
+        # [z, q] → state columns, and state → q: Φ's dynamics rows are Y @ _Z_TO_STATE
+        self._z_to_state = np.zeros((6 + nq, n))
+        self._z_to_state[np.arange(6), np.arange(6)] = 1.0
+        self._state_to_q = np.zeros((n, nq))
+        for col, qi in self._q_cols:
+            self._z_to_state[6 + qi, col] = 1.0
+            self._state_to_q[col, qi] = 1.0
+        self._clock = (L.slices["clock"].start, L.slices["clock"].stop) if L.has("clock") else None
         self.batched: list[_Batched] = []
         if L.has("srp_stoch"):
             self.batched.append(_Batched(L.slices["srp_stoch"].start,
@@ -153,67 +168,60 @@ class EKFStack:
             k = f.clock.components
             self.clock_q[i, :k] = (f.clock.q_white_fm_s, f.clock.q_random_walk_fm_per_s, f.clock.q_random_run_per_s3)[:k]
         self.snc_psd = np.array([f.velocity_noise_psd_km2_s3 for f in cfgs])
-        # the last propagation leg (t0, t1, [r, v](t0), Y): a Doppler count interval that is
+        # the last propagation leg (t0, t1, z(t0), z(t1), q, Y): a Doppler count interval that is
         # exactly this leg reuses it instead of propagating back
-        self._last_leg: tuple[float, float, np.ndarray, np.ndarray] | None = None
+        self._last_leg: tuple[float, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
         self.maneuvers = sorted(config.maneuvers, key=lambda m: m.epoch_tdb_s)
+        self._next_event = -math.inf  # no batch boundary or manoeuvre before this epoch
+        self._event_horizon = self.t
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
-        """Acceleration drivers q (N, n_q) of the state: SRP scale, ACS magnitude, polynomial."""
-        x = self.x if x is None else x
-        L = self.layout
-        q = np.zeros((x.shape[0], L.n_q))
-        for col, qi in self._q_cols:
-            q[:, qi] += x[:, col]
-        return q
+        """Acceleration drivers q (N, n_q) of the state: SRP scale, ACS magnitude and tilts, polynomial."""
+        return (self.x if x is None else x) @ self._state_to_q
 
     def transition(self, Y: np.ndarray, h: float) -> np.ndarray:
         """Full Φ (N, n, n) from the dynamics sensitivity Y (N, 6, 6 + n_q) over a step h."""
         N, n = self.x.shape
         Phi = np.zeros((N, n, n))
-        Phi[:, np.arange(n), np.arange(n)] = 1.0
-        Phi[:, 0:6, 0:6] = Y[:, :, :6]
-        for col, qi in self._q_cols:
-            Phi[:, 0:6, col] = Y[:, :, 6 + qi]
-        if self.layout.has("clock"):
-            c = self.layout.slices["clock"]
-            Phi[:, c, c] = clock_transition(h, c.stop - c.start)
+        Phi[:, np.arange(6, n), np.arange(6, n)] = 1.0
+        Phi[:, 0:6, :] = Y @ self._z_to_state
+        if self._clock is not None:
+            c0, c1 = self._clock
+            Phi[:, c0:c1, c0:c1] = clock_transition(h, c1 - c0)
         return Phi
 
-    def _process_noise(self, h: float) -> np.ndarray:
-        N, n = self.x.shape
-        Q = np.zeros((N, n, n))
+    def _add_process_noise(self, P: np.ndarray, h: float) -> None:
+        """P += Q over a step h: clock noise and the optional white acceleration (SNC)."""
         dt = abs(h)
-        if self.layout.has("clock"):
-            c = self.layout.slices["clock"]
-            k = c.stop - c.start
-            Q[:, c, c] = clock_process_noise(dt, self.clock_q)[:, :k, :k]
+        if self._clock is not None:
+            c0, c1 = self._clock
+            P[:, c0:c1, c0:c1] += clock_process_noise(dt, self.clock_q)[:, : c1 - c0, : c1 - c0]
         if np.any(self.snc_psd > 0.0):
-            q = self.snc_psd[:, None]
-            eye = np.arange(3)
-            Q[:, eye, eye] += q * dt**3 / 3.0
-            Q[:, eye, eye + 3] += q * dt**2 / 2.0
-            Q[:, eye + 3, eye] += q * dt**2 / 2.0
-            Q[:, eye + 3, eye + 3] += q * dt
-        return Q
+            q = self.snc_psd[:, None, None]
+            P[:, 0:3, 0:3] += (q * dt**3 / 3.0) * _EYE3
+            P[:, 0:3, 3:6] += (q * dt**2 / 2.0) * _EYE3
+            P[:, 3:6, 0:3] += (q * dt**2 / 2.0) * _EYE3
+            P[:, 3:6, 3:6] += (q * dt) * _EYE3
 
     def _propagate_interval(self, t1: float) -> None:
         h = t1 - self.t
         if h == 0.0:
             return
-        z0 = self.x[:, 0:6].copy()
-        r1, v1, Y = self.propagator.propagate(self.t, t1, self.x[:, 0:3], self.x[:, 3:6], self.drivers())
-        self._last_leg = (self.t, t1, z0, Y)
+        x = self.x
+        q = self.drivers()
+        r1, v1, Y = self.propagator.propagate(self.t, t1, x[:, 0:3], x[:, 3:6], q)
         Phi = self.transition(Y, h)
-        x = self.x.copy()
-        x[:, 0:3], x[:, 3:6] = r1, v1
-        if self.layout.has("clock"):
-            c = self.layout.slices["clock"]
-            x[:, c] = np.einsum("nij,nj->ni", Phi[:, c, c], self.x[:, c])
+        x_new = x.copy()
+        x_new[:, 0:3] = r1
+        x_new[:, 3:6] = v1
+        if self._clock is not None:
+            c0, c1 = self._clock
+            x_new[:, c0:c1] = np.matmul(Phi[:, c0:c1, c0:c1], x[:, c0:c1, None])[:, :, 0]
         P = Phi @ self.P @ Phi.transpose(0, 2, 1)
-        P += self._process_noise(h)
-        self.x = x
+        self._add_process_noise(P, h)
+        self._last_leg = (self.t, t1, x[:, 0:6].copy(), x_new[:, 0:6].copy(), q, Y)
+        self.x = x_new
         self.P = kalman.symmetrise(P)
         self.t = t1
 
@@ -242,45 +250,64 @@ class EKFStack:
         t1 = float(t1)
         if not math.isfinite(t1) or t1 < self.t:
             raise ValueError(f"cannot propagate from {self.t} back to {t1}")
-        for te in self._events(t1):
-            self._propagate_interval(te)
-            self._apply_events(te)
+        if t1 >= self._next_event or t1 > self._event_horizon:
+            # batch boundaries and manoeuvres are looked up a day ahead at a time
+            horizon = max(t1, self.t + 86400.0)
+            events = self._events(horizon)
+            self._next_event = events[0] if events else math.inf
+            self._event_horizon = horizon
+            for te in events:
+                if te > t1:
+                    break
+                self._propagate_interval(te)
+                self._apply_events(te)
+            if self._next_event <= t1:
+                rest = [te for te in events if te > t1]
+                self._next_event = rest[0] if rest else math.inf
         self._propagate_interval(t1)
 
     # -- measurement models ---------------------------------------------------------------------
-    def _clock(self, x: np.ndarray, k: int) -> np.ndarray:
-        L = self.layout
-        if not L.has("clock") or L.slices["clock"].stop - L.slices["clock"].start <= k:
+    def _clock_state(self, x: np.ndarray, k: int) -> np.ndarray:
+        if self._clock is None or self._clock[1] - self._clock[0] <= k:
             return np.zeros(x.shape[0])
-        return x[:, L.slices["clock"].start + k]
+        return x[:, self._clock[0] + k]
 
     def _count_start(self, t: float, count_s: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """[r, v] at t − T and its sensitivity to [r, v, q] at t.
+        """[r, v] at t − T and its sensitivity Yb = ∂[r, v](t − T)/∂[r, v, q](t).
 
-        If the last propagation leg ran exactly from t − T to the current state, its start is
-        the back-propagated state (to integration error) and Φ_zz⁻¹ [I, −Ψ] its sensitivity;
-        otherwise the state is propagated back by T.
+        If the last propagation leg ran from t − T to the current epoch, its start serves: the
+        leg's STM [Φ | Ψ] maps start to end, so Yb = [Φ⁻¹, −Φ⁻¹Ψ], and any change of the
+        state at t since the leg was flown (a measurement update at t) carries to the start
+        through Yb (the flow over T is linear to ~1e-15 km in such corrections). Φ is
+        symplectic (a Hamiltonian flow: G is symmetric), so Φ⁻¹ = [[Φ_vvᵀ, −Φ_rvᵀ], [−Φ_vrᵀ, Φ_rrᵀ]].
+        Otherwise the state is propagated back by T.
         """
         leg = self._last_leg
         if leg is not None and x is self.x and leg[1] == self.t == t and abs(leg[0] - (t - count_s)) < 1e-6:
-            _, _, z0, Y = leg
-            inv = np.linalg.inv(Y[:, :, :6])
+            _, _, z0, z1, q_leg, Y = leg
+            inv = np.empty((x.shape[0], 6, 6))
+            inv[:, 0:3, 0:3] = Y[:, 3:6, 3:6].transpose(0, 2, 1)
+            inv[:, 0:3, 3:6] = -Y[:, 0:3, 3:6].transpose(0, 2, 1)
+            inv[:, 3:6, 0:3] = -Y[:, 3:6, 0:3].transpose(0, 2, 1)
+            inv[:, 3:6, 3:6] = Y[:, 0:3, 0:3].transpose(0, 2, 1)
             Yb = np.concatenate([inv, -inv @ Y[:, :, 6:]], axis=2)
-            return z0[:, 0:3], z0[:, 3:6], Yb
+            dz = np.concatenate([x[:, 0:6] - z1, self.drivers(x) - q_leg], axis=1)
+            z_start = z0 + np.matmul(Yb, dz[:, :, None])[:, :, 0]
+            return z_start[:, 0:3], z_start[:, 3:6], Yb
         return self.propagator.propagate(t, t - count_s, x[:, 0:3], x[:, 3:6], self.drivers(x))
 
     def predict_range(self, station: str, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """h (N, 1) and H (N, 1, n) of one-way range (see :mod:`fsw.models.radiometric`)."""
         L = self.layout
-        delta = self._clock(x, 0)
+        delta = self._clock_state(x, 0)
         g = uplink(self.env, station, t, x[:, 0:3], x[:, 3:6], delta)
         N = x.shape[0]
         H = np.zeros((N, 1, L.n))
         H[:, 0, 0:3] = g.d_rho_d_r
         H[:, 0, 3:6] = g.d_rho_d_v
         h = g.rho + C_KM_S * delta
-        if L.has("clock"):
-            H[:, 0, L.slices["clock"].start] = C_KM_S + g.d_rho_d_delta
+        if self._clock is not None:
+            H[:, 0, self._clock[0]] = C_KM_S + g.d_rho_d_delta
         if L.has("range_bias"):
             h = h + x[:, L.slices["range_bias"].start]
             H[:, 0, L.slices["range_bias"].start] = 1.0
@@ -290,45 +317,60 @@ class EKFStack:
         """h (N, 1) and H (N, 1, n) of one-way Doppler over the count interval ending at t."""
         L = self.layout
         N = x.shape[0]
-        delta = self._clock(x, 0)
-        freq = self._clock(x, 1)
-        drift = self._clock(x, 2)
+        delta = self._clock_state(x, 0)
+        freq = self._clock_state(x, 1)
+        drift = self._clock_state(x, 2)
         r_s, v_s, Yb = self._count_start(t, count_s, x)
-        end = uplink(self.env, station, t, x[:, 0:3], x[:, 3:6], delta)
-        start = uplink(self.env, station, t - count_s, r_s, v_s, delta)
-        h = (end.rho - start.rho) / count_s + C_KM_S * (freq - 0.5 * drift * count_s)
-        H = np.zeros((N, 1, L.n))
+        # both ends of the count in one light-time solution: [end, start]
+        g = uplinks(self.env, station, (t, t - count_s), np.stack([x[:, 0:3], r_s]), np.stack([x[:, 3:6], v_s]), delta)
+        h = (g.rho[0] - g.rho[1]) / count_s + C_KM_S * (freq - 0.5 * drift * count_s)
         # start geometry through the backward sensitivity Yb = ∂[r, v]_start / ∂[r, v, q]_end
-        g_start = np.concatenate([start.d_rho_d_r, start.d_rho_d_v], axis=1)  # (N, 6)
-        d_start = np.einsum("ni,nij->nj", g_start, Yb)  # (N, 6 + n_q)
-        H[:, 0, 0:3] = (end.d_rho_d_r - d_start[:, 0:3]) / count_s
-        H[:, 0, 3:6] = (end.d_rho_d_v - d_start[:, 3:6]) / count_s
-        for col, qi in self._q_cols:
-            H[:, 0, col] = -d_start[:, 6 + qi] / count_s
-        if L.has("clock"):
-            c = L.slices["clock"].start
-            k = L.slices["clock"].stop - c
-            H[:, 0, c] = (end.d_rho_d_delta - start.d_rho_d_delta) / count_s
+        g_start = np.concatenate([g.d_rho_d_r[1], g.d_rho_d_v[1]], axis=1)  # (N, 6)
+        d_start = np.matmul(g_start[:, None, :], Yb)[:, 0, :]  # (N, 6 + n_q)
+        d_end = np.zeros((N, 6 + L.n_q))
+        d_end[:, 0:3] = g.d_rho_d_r[0]
+        d_end[:, 3:6] = g.d_rho_d_v[0]
+        H = ((d_end - d_start) / count_s) @ self._z_to_state
+        if self._clock is not None:
+            c = self._clock[0]
+            k = self._clock[1] - c
+            H[:, c] = (g.d_rho_d_delta[0] - g.d_rho_d_delta[1]) / count_s
             if k > 1:
-                H[:, 0, c + 1] = C_KM_S
+                H[:, c + 1] = C_KM_S
             if k > 2:
-                H[:, 0, c + 2] = -0.5 * C_KM_S * count_s
-        return h[:, None], H
+                H[:, c + 2] = -0.5 * C_KM_S * count_s
+        return h[:, None], H[:, None, :]
+
+    def doppler_clock_variance(self, count_s: float) -> np.ndarray:
+        """(N,) variance [km²/s²] the clock adds to a one-way Doppler beyond its model c (f − a T/2).
+
+        The count measures the phase change over T, (b_end − b_start)/T; white FM (q1) moves the
+        phase by a random walk of variance q1 T inside the count and random-walk FM (q2) makes
+        the mean frequency over the count differ from the modelled one by variance q2 T/3.
+        Neither is in the frequency state, so each count carries c² (q1/T + q2 T/3) of its own
+        (the Allan variance at τ = T of those two noises; 0.018 mm/s for a DSAC-class clock at
+        60 s). Filters without clock states model no clock noise here."""
+        q = self.clock_q
+        return C_KM_S**2 * (q[:, 0] / count_s + q[:, 1] * count_s / 3.0)
 
     def predict_optical(self, target: str, t: float, attitude_q, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """h (N, 2) and H (N, 2, n) of the [sample, line] of a target (see :mod:`fsw.models.optical`)."""
-        cams = [f.camera for f in self.config.filters]
-        h, Hr, Hv = optical(
-            self.env, target, t, x[:, 0:3], x[:, 3:6], np.asarray(attitude_q, dtype=float),
-            focal_px=np.array([c.focal_px for c in cams]),
-            principal_point=np.array([c.principal_point_px for c in cams]),
-            light_time=np.array([c.light_time for c in cams]),
-            aberration=np.array([c.aberration for c in cams]),
-        )
+        cams = self._cameras
+        h, Hr, Hv = optical(self.env, target, t, x[:, 0:3], x[:, 3:6], np.asarray(attitude_q, dtype=float), *cams)
         H = np.zeros((x.shape[0], 2, self.layout.n))
         H[:, :, 0:3] = Hr
         H[:, :, 3:6] = Hv
         return h, H
+
+    @property
+    def _cameras(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        cached = self.__dict__.get("_camera_arrays")
+        if cached is None:
+            cams = [f.camera for f in self.config.filters]
+            cached = (np.array([c.focal_px for c in cams]), np.array([c.principal_point_px for c in cams]),
+                      np.array([c.light_time for c in cams]), np.array([c.aberration for c in cams]))
+            self.__dict__["_camera_arrays"] = cached
+        return cached
 
     # -- update ---------------------------------------------------------------------------------
     def update(self, y: np.ndarray, h: np.ndarray, H: np.ndarray, R: np.ndarray, does: np.ndarray,
@@ -339,10 +381,10 @@ class EKFStack:
         Mt = kalman.augmented_joint(self.x, self.P, H, R, residual)
         PX, res, S, chi2, processed = kalman.update(Mt, n, does, gate)
         processed = does if processed is None else processed
-        x_new = -PX[:, :, n]
-        P_new = kalman.symmetrise(PX[:, :, :n])
-        if processed.any():
-            self._last_leg = None
-        self.x = np.where(processed[:, None], x_new, self.x)
-        self.P = np.where(processed[:, None, None], P_new, self.P)
+        if processed.all():
+            self.x = -PX[:, :, n]
+            self.P = kalman.symmetrise(PX[:, :, :n])
+        elif processed.any():
+            self.x = np.where(processed[:, None], -PX[:, :, n], self.x)
+            self.P = np.where(processed[:, None, None], kalman.symmetrise(PX[:, :, :n]), self.P)
         return res.copy(), S.copy(), chi2, processed

@@ -31,13 +31,11 @@ def clock_transition(h: float, k: int = 3) -> np.ndarray:
 
 def clock_process_noise(h: float, q: np.ndarray) -> np.ndarray:
     """Exact discrete Q (N, 3, 3) over a step h for spectral densities q (N, 3) = (q1, q2, q3)."""
-    q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2]
-    h2, h3 = h * h, h * h * h
-    Q = np.empty((q.shape[0], 3, 3))
-    Q[:, 0, 0] = q1 * h + q2 * h3 / 3.0 + q3 * h3 * h2 / 20.0
-    Q[:, 0, 1] = Q[:, 1, 0] = q2 * h2 / 2.0 + q3 * h2 * h2 / 8.0
-    Q[:, 0, 2] = Q[:, 2, 0] = q3 * h3 / 6.0
-    Q[:, 1, 1] = q2 * h + q3 * h3 / 3.0
-    Q[:, 1, 2] = Q[:, 2, 1] = q3 * h2 / 2.0
-    Q[:, 2, 2] = q3 * h
-    return Q
+    h2 = h * h
+    h3 = h2 * h
+    basis = np.array((
+        ((h, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        ((h3 / 3.0, h2 / 2.0, 0.0), (h2 / 2.0, h, 0.0), (0.0, 0.0, 0.0)),
+        ((h3 * h2 / 20.0, h2 * h2 / 8.0, h3 / 6.0), (h2 * h2 / 8.0, h3 / 3.0, h2 / 2.0), (h3 / 6.0, h2 / 2.0, h)),
+    ))
+    return np.matmul(q, basis.reshape(3, 9)).reshape(q.shape[0], 3, 3)

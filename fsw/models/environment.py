@@ -25,7 +25,7 @@ from collections import OrderedDict
 import numpy as np
 
 from fsw.astro.constants import OMEGA_EARTH_RAD_S, SECONDS_PER_DAY
-from fsw.astro.ephemeris import Ephemeris, EphemerisTable, default_ephemeris
+from fsw.astro.ephemeris import Ephemeris, EphemerisError, EphemerisTable, default_ephemeris
 from fsw.astro.moons import MOONS, moon_state
 from fsw.astro.earth import itrs_to_gcrs_matrix
 from fsw.astro.stations import StationError, station, station_state_icrf
@@ -48,7 +48,8 @@ class Environment:
         self._span = table_span_days * SECONDS_PER_DAY
         self._step = table_step_s
         self._table: EphemerisTable | None = None
-        self._stations: OrderedDict[tuple[str, float], tuple[np.ndarray, np.ndarray]] = OrderedDict()
+        self._hermite: np.ndarray | None = None
+        self._stations: OrderedDict[tuple[str, float], tuple[np.ndarray, ...]] = OrderedDict()
 
     # -- planets --------------------------------------------------------------------------------
     def _table_for(self, t_lo: float, t_hi: float) -> EphemerisTable:
@@ -58,6 +59,16 @@ class Environment:
             start = t_lo - 2.0 * SECONDS_PER_DAY
             tab = EphemerisTable(eph, start, max(t_hi, start + self._span), TABLE_BODIES, "ssb", self._step)
             self._table = tab
+            # the table's cubic Hermite interpolant per grid interval i, as the four node
+            # vectors [p_i, h v_i, p_i+1, h v_i+1] (rows of 5 bodies × 3), for batched lookups
+            n = int(round((tab.t_last - tab.t_first) / tab.step)) + 1
+            p, v = tab.states(tab.t_first + tab.step * np.arange(n))
+            nodes = np.empty((n - 1, 4, 15))
+            nodes[:, 0] = p[:-1].reshape(n - 1, 15)
+            nodes[:, 1] = tab.step * v[:-1].reshape(n - 1, 15)
+            nodes[:, 2] = p[1:].reshape(n - 1, 15)
+            nodes[:, 3] = tab.step * v[1:].reshape(n - 1, 15)
+            self._hermite = nodes
         return tab
 
     def positions_ssb(self, t: float) -> np.ndarray:
@@ -66,9 +77,38 @@ class Environment:
 
     def states_ssb(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """SSB positions and velocities (5, 3) of TABLE_BODIES at one time."""
-        t = float(t)
-        tab = self._table_for(t - 1.0, t + 1.0)
-        return tab.positions(t), tab.positions(t + 0.5) - tab.positions(t - 0.5)
+        p, v = self.states_many((t,))
+        return p[0], v[0]
+
+    def states_many(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """SSB positions and velocities (K, 5, 3) of TABLE_BODIES at K times (a short sequence):
+        the table's cubic Hermite interpolant and its exact derivative, all epochs in one
+        batched product (the per-epoch basis is a few scalar operations)."""
+        ts = [float(v) for v in t]
+        tab = self._table_for(min(ts) - 1.0, max(ts) + 1.0)
+        t_first, step = tab.t_first, tab.step
+        rows = []
+        idx = []
+        for tk in ts:
+            x = (tk - t_first) / step
+            i = int(x)
+            s = x - i
+            s2 = s * s
+            s3 = s2 * s
+            d0 = (6.0 * s2 - 6.0 * s) / step
+            rows.append(((2.0 * s3 - 3.0 * s2 + 1.0, s3 - 2.0 * s2 + s, 3.0 * s2 - 2.0 * s3, s3 - s2),
+                         (d0, (3.0 * s2 - 4.0 * s + 1.0) / step, -d0, (3.0 * s2 - 2.0 * s) / step)))
+            idx.append(i)
+        pv = np.matmul(np.array(rows), self._hermite[idx]).reshape(len(ts), 2, 5, 3)
+        return pv[:, 0], pv[:, 1]
+
+    def covers(self, t: float) -> bool:
+        """Whether t lies inside the onboard ephemeris (the table is extended as needed)."""
+        try:
+            self._table_for(t - 1.0, t + 1.0)
+        except EphemerisError:
+            return False
+        return True
 
     def third_bodies(self, t: float) -> np.ndarray:
         """(3, 3) Mars-centred positions of the Sun, the Earth-Moon barycentre and Jupiter [km]."""
@@ -81,33 +121,36 @@ class Environment:
         """Canonical station name; raises ``StationError`` for an unknown one."""
         return station(name).name
 
-    def _station_node(self, name: str, t_grid: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _station_node(self, name: str, t_grid: float) -> tuple[np.ndarray, ...]:
+        """(r0, k × r0, k (k·r0), dv) of a station at a grid epoch; k is the celestial pole."""
         key = (name, t_grid)
         hit = self._stations.get(key)
         if hit is None:
             r0, v0 = station_state_icrf(name, t_grid)
-            hit = (r0, v0, itrs_to_gcrs_matrix(t_grid)[:, 2])
+            k = itrs_to_gcrs_matrix(t_grid)[:, 2]
+            kxr = cross(k, r0)
+            # what the rotation about k does not explain (pole motion, rate terms, ~1e-8 km/s)
+            # is carried as a constant velocity
+            hit = (r0, kxr, k * float(k @ r0), v0 - OMEGA_EARTH_RAD_S * kxr)
             self._stations[key] = hit
             if len(self._stations) > 256:
                 self._stations.popitem(last=False)
         return hit
 
     def station_gcrs(self, name: str, t: np.ndarray, t_ref: float) -> tuple[np.ndarray, np.ndarray]:
-        """Geocentric position and velocity of a station at times ``t_ref + t`` (offsets (k,))."""
+        """Geocentric position and velocity of a station at times ``t_ref + t`` (offsets (k,)).
+
+        Rodrigues: r(Δt) = r0 cos θ + (k × r0) sin θ + k (k·r0)(1 − cos θ) + dv Δt, θ = ω⊕ Δt,
+        and its exact rate ω⊕ [(k × r0) cos θ + (k (k·r0) − r0) sin θ] + dv."""
         t_grid = round(t_ref / _STATION_GRID_S) * _STATION_GRID_S
-        r0, v0, k = self._station_node(name, t_grid)
-        dt = ((t_ref - t_grid) + np.asarray(t, dtype=float))[..., None]
+        r0, kxr, kkr, dv = self._station_node(name, t_grid)
+        dt = (t_ref - t_grid) + np.asarray(t, dtype=float)
         theta = OMEGA_EARTH_RAD_S * dt
-        # what the rotation about k does not explain (pole motion, rate terms, ~1e-8 km/s)
-        # is carried as a constant velocity
-        dv = v0 - OMEGA_EARTH_RAD_S * cross(k, r0)
-        c, s = np.cos(theta), np.sin(theta)
-
-        def rotate(x: np.ndarray) -> np.ndarray:
-            return x * c + cross(k, x) * s + k * float(k @ x) * (1.0 - c)
-
-        r = rotate(r0)
-        return r + dv * dt, OMEGA_EARTH_RAD_S * cross(k, r) + dv  # exact rate of the position
+        c = np.cos(theta)[:, None]
+        s = np.sin(theta)[:, None]
+        r = r0 * c + kxr * s + kkr * (1.0 - c) + dv * dt[:, None]
+        v = OMEGA_EARTH_RAD_S * (kxr * c + (kkr - r0) * s) + dv
+        return r, v
 
     # -- optical targets ----------------------------------------------------------------------
     @staticmethod

@@ -1,10 +1,14 @@
 """A campaign directory read for reporting: ``runs.jsonl`` rows grouped into cases.
 
-Each row of ``runs.jsonl`` is one run's summary (the dictionary ``navbank run`` writes to
-``summary.json``: ``fault``, ``anomaly``, ``gating.<network>.mean_weights``, ...) plus ``id``,
-``cell``, ``seed`` and ``status``. ``cell`` is ``{scenario, fault, variant}`` or its text key
-``"scenario / fault / variant"``. Rows whose status is not a success, or that lack the summary,
-are counted as failed and left out of every statistic.
+Each row of ``runs.jsonl`` is one run: ``id``, ``cell``, ``seed``, ``status``, ``detector``
+(``{network, calibrated}``) and the run's summary (the dictionary ``navbank run`` writes to
+``summary.json``: ``fault``, ``anomaly``, ``gating.<network>.mean_weights``, ...), either nested
+under ``summary`` or merged into the row; rows are flattened to the merged form on reading. A
+re-run appends a new row for the same id: the last row of each id wins. ``cell`` is
+``{scenario, fault, variant}`` or its text key ``"scenario / fault / variant"``. Rows whose status
+is not a success, or that lack the summary, are counted as failed and left out of every
+statistic. Runs whose detector was not calibrated cannot declare anything; they are left out of
+the detection statistics and the confusion matrix (their weights still count).
 
 Scoring (per run, from its summary's ``anomaly`` block):
 
@@ -13,14 +17,13 @@ Scoring (per run, from its summary's ``anomaly`` block):
 * diagnosed class — the declared class, ``none`` if nothing was declared;
 * latency — declaration epoch minus true onset.
 
-Detection probabilities carry Wilson score intervals (Wilson 1927), which stay inside [0, 1] and
-behave at 0 and n successes, unlike the normal approximation.
+Detection probabilities carry exact (Clopper–Pearson) intervals, the same as the campaign's own
+``summary.json`` (:func:`fsw.fdir.calibrate.clopper_pearson`).
 """
 
 from __future__ import annotations
 
 import json
-import math
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -29,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from fsw.fdir.calibrate import clopper_pearson
 from fsw.interface.messages import ANOMALY_CLASSES
 
 RUNS_FILE = "runs.jsonl"
@@ -56,9 +60,10 @@ def load_campaign(path: str | Path) -> Campaign:
     runs = path / RUNS_FILE
     if not runs.is_file():
         raise CampaignReadError(f"{path}: no {RUNS_FILE} (not a campaign directory)")
-    rows, failed, bad = [], [], 0
+    latest: dict[str, dict] = {}
+    bad = 0
     with runs.open(encoding="utf-8") as f:
-        for line in f:
+        for k, line in enumerate(f):
             line = line.strip()
             if not line:
                 continue
@@ -69,10 +74,12 @@ def load_campaign(path: str | Path) -> Campaign:
                 continue
             if not isinstance(row, dict):
                 bad += 1
-            elif is_ok(row):
-                rows.append(row)
-            else:
-                failed.append(row)
+                continue
+            row = flatten(row)
+            latest.pop(str(row.get("id", f"#{k}")), None)  # keep file order of the latest rows
+            latest[str(row.get("id", f"#{k}"))] = row
+    rows = [r for r in latest.values() if is_ok(r)]
+    failed = [r for r in latest.values() if not is_ok(r)]
     summary = None
     if (path / SUMMARY_FILE).is_file():
         try:
@@ -80,6 +87,20 @@ def load_campaign(path: str | Path) -> Campaign:
         except ValueError:
             summary = None
     return Campaign(path=path, rows=rows, failed=failed, bad_lines=bad, summary=summary)
+
+
+def flatten(row: dict) -> dict:
+    """A row with its nested ``summary`` merged in (the row's own keys win)."""
+    summary = row.get("summary")
+    if isinstance(summary, dict):
+        return {**summary, **{k: v for k, v in row.items() if k != "summary"}}
+    return row
+
+
+def calibrated(row: dict) -> bool:
+    """The run's detector could declare (rows that do not say are taken as calibrated)."""
+    det = row.get("detector")
+    return not isinstance(det, dict) or bool(det.get("calibrated", True))
 
 
 def is_ok(row: dict) -> bool:
@@ -126,7 +147,7 @@ def split_size(case: str) -> tuple[str, str | None]:
 
 def true_class(row: dict) -> str:
     a = row.get("anomaly") or {}
-    return str(a.get("true_class") or (row.get("fault") or {}).get("class") or "none")
+    return str(a.get("true_class") or row.get("fault_class") or (row.get("fault") or {}).get("class") or "none")
 
 
 def is_faulted(row: dict) -> bool:
@@ -154,18 +175,11 @@ def latency_h(row: dict) -> float | None:
     return None if lat is None or not detected(row) else float(lat) / 3600.0
 
 
-def wilson_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
-    """Wilson score interval for k successes in n trials (``(nan, nan)`` for n = 0)."""
+def interval(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
+    """Exact binomial interval for k successes in n trials (``(nan, nan)`` for n = 0)."""
     if n <= 0:
         return float("nan"), float("nan")
-    from statistics import NormalDist
-
-    z = NormalDist().inv_cdf(0.5 + confidence / 2.0)
-    p = k / n
-    denom = 1.0 + z * z / n
-    centre = (p + z * z / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, centre - half), min(1.0, centre + half)
+    return clopper_pearson(k, n, level)
 
 
 @dataclass
@@ -194,7 +208,7 @@ class CaseStats:
 
     @property
     def interval(self) -> tuple[float, float]:
-        return wilson_interval(self.detections if self.faulted else self.false_alarms, self.n)
+        return interval(self.detections if self.faulted else self.false_alarms, self.n)
 
     @property
     def label(self) -> str:
@@ -224,7 +238,8 @@ def variants(rows: list[dict]) -> list[str]:
 
 
 def case_stats(rows: list[dict]) -> list[CaseStats]:
-    """Detection statistics per (variant, fault case)."""
+    """Detection statistics per (variant, fault case), over runs with a calibrated detector."""
+    rows = [r for r in rows if calibrated(r)]
     out = []
     several = len(variants(rows)) > 1
     for var in variants(rows):
@@ -244,7 +259,9 @@ def case_stats(rows: list[dict]) -> list[CaseStats]:
 
 
 def confusion(rows: list[dict]) -> tuple[tuple[str, ...], np.ndarray]:
-    """Counts of (injected class, diagnosed class) over runs; rows injected, columns diagnosed."""
+    """Counts of (injected class, diagnosed class) over runs with a calibrated detector; rows
+    injected, columns diagnosed."""
+    rows = [r for r in rows if calibrated(r)]
     classes = list(ANOMALY_CLASSES)
     for r in rows:
         for c in (true_class(r), diagnosed_class(r)):

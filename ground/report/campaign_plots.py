@@ -6,7 +6,7 @@
   ``mean_weights_after_onset_…`` the same over the faulted part of each run only;
 * ``confusion_matrix.png`` — injected vs diagnosed anomaly class, counts annotated;
 * ``detection_latency.png`` — latency histogram per faulted case;
-* ``detection_probability.png`` — detection probability per case with 95 % Wilson intervals
+* ``detection_probability.png`` — detection probability per case with 95 % exact (Clopper–Pearson) intervals
   (nominal cases: the false-alarm rate).
 
 Each ``plot_*`` writes its PNG and returns the path, or returns the Figure when given no path.
@@ -140,7 +140,7 @@ def plot_latency(stats: list[C.CaseStats], path: Path | None = None) -> Any:
 
 
 def plot_detection_probability(stats: list[C.CaseStats], path: Path | None = None) -> Any:
-    """Detection probability per case (false-alarm rate for nominal cases), 95 % Wilson intervals."""
+    """Detection probability per case (false-alarm rate for nominal cases), 95 % exact (Clopper–Pearson) intervals."""
     if not stats:
         return None
     fig, ax = F.new_figure(size=(10.0, 4.4))
@@ -160,7 +160,7 @@ def plot_detection_probability(stats: list[C.CaseStats], path: Path | None = Non
 
     handles = [Line2D([], [], color="tab:blue", marker="o", linestyle="none", label="detection probability (faulted)"),
                Line2D([], [], color="tab:red", marker="o", linestyle="none", label="false-alarm rate (nominal)"),
-               Line2D([], [], color="black", marker="|", markersize=10, linestyle="none", label="95 % Wilson interval")]
+               Line2D([], [], color="black", marker="|", markersize=10, linestyle="none", label="95 % Clopper–Pearson interval")]
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=9)
     ax.set_title("Detection probability per fault case (runs detected / runs)")
     return F.finish(fig, path)
@@ -188,7 +188,8 @@ def write_campaign_figures(campaign: C.Campaign | str | Path, out_dir: str | Pat
                 written.append(plot_mean_weights(mw, out / f"{stem}_{suffix}.png", after_onset=after,
                                                  show_variant=multi_variant))
     classes, mat = C.confusion(rows)
-    written.append(plot_confusion(classes, mat, out / "confusion_matrix.png"))
+    if mat.sum() > 0:  # nothing to score when no run had a calibrated detector
+        written.append(plot_confusion(classes, mat, out / "confusion_matrix.png"))
     stats = C.case_stats(rows)
     for fn, name in ((plot_latency, "detection_latency.png"), (plot_detection_probability, "detection_probability.png")):
         p = fn(stats, out / name)

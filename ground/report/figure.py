@@ -22,7 +22,7 @@ ERROR_COLOR = "tab:blue"
 SIGMA1_COLOR = "tab:orange"
 SIGMA3_COLOR = "tab:red"
 
-_PALETTE = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:gray", "tab:red")
+PALETTE = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:gray", "tab:red")
 #: Filters that carry inflated process noise (seed 001 §4.4) share their base filter's colour, dashed.
 HIGH_Q_SUFFIX = "-Q"
 
@@ -81,7 +81,7 @@ def filter_styles(names: tuple[str, ...] | list[str]) -> dict[str, dict[str, Any
     for name in names:
         high_q = name.endswith(HIGH_Q_SUFFIX)
         base = name[: -len(HIGH_Q_SUFFIX)] if high_q else name
-        styles[name] = {"color": _PALETTE[bases.index(base) % len(_PALETTE)], "linestyle": "--" if high_q else "-"}
+        styles[name] = {"color": PALETTE[bases.index(base) % len(PALETTE)], "linestyle": "--" if high_q else "-"}
     return styles
 
 

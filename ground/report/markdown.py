@@ -134,9 +134,11 @@ def campaign_markdown(camp: C.Campaign, figures: Sequence[Path], out_dir: Path) 
     """Markdown text of a campaign report."""
     rows = camp.rows
     lines = [f"# navbank campaign report: {camp.path.name}", ""]
+    uncal = sum(not C.calibrated(r) for r in rows)
     lines += [f"{len(rows)} successful runs, {len(camp.failed)} failed"
               + (f", {camp.bad_lines} unreadable lines in {C.RUNS_FILE}" if camp.bad_lines else "")
-              + f"; {len(C.cases(rows))} fault cases; networks: {', '.join(C.networks(rows)) or DASH}.", ""]
+              + f"; {len(C.cases(rows))} fault cases; networks: {', '.join(C.networks(rows)) or DASH}."
+              + (f" {uncal} runs had no calibrated detector: they count for the weights only." if uncal else ""), ""]
     stats = C.case_stats(rows)
     if stats:
         lines += ["## Detection per fault case", ""]
@@ -153,7 +155,7 @@ def campaign_markdown(camp: C.Campaign, figures: Sequence[Path], out_dir: Path) 
         lines += _table(["case", "injected class", "runs", "P(detect) [95 % CI]", "false alarms", "correct class / detected",
                          "median latency [h]"], trows)
         lines += ["", "P(detect): declared at or after the true onset. A declaration before the onset is a false alarm, "
-                      "even in a faulted run. Intervals: Wilson score, 95 %.", ""]
+                      "even in a faulted run. Intervals: exact (Clopper–Pearson), 95 %.", ""]
     for var in C.variants(rows):
         for net in C.networks(rows):
             mw = C.mean_weights(rows, net, var)
@@ -168,10 +170,17 @@ def campaign_markdown(camp: C.Campaign, figures: Sequence[Path], out_dir: Path) 
         lines += ["## Failed runs", ""]
         lines += _table(["id", "cell", "status", "error"],
                         [[r.get("id", DASH), " / ".join(C.cell_parts(r).values()), r.get("status", DASH),
-                          str(r.get("error", ""))[:120]] for r in camp.failed[:50]]) + [""]
+                          _error_text(r.get("error"))] for r in camp.failed[:50]]) + [""]
     if figures:
         lines += ["## Figures", ""] + _figures(figures, out_dir, CAMPAIGN_CAPTIONS)
     return "\n".join(lines).rstrip() + "\n"
+
+
+def _error_text(err: Any) -> str:
+    """A failed run's error in one short line (an error record ``{type, message}`` or text)."""
+    if isinstance(err, dict):
+        err = f"{err.get('type', '')}: {err.get('message', '')}".strip(": ")
+    return " ".join(str(err or "").split())[:120]
 
 
 def write_markdown(text: str, out_dir: str | Path) -> Path:

@@ -26,6 +26,8 @@ from ground.report.run_data import RunData, declared_epoch, extract
 
 #: Below this many points a trace is drawn with markers too (batch networks update rarely).
 FEW_POINTS = 60
+#: Beyond this many declarations the vertical lines share one legend entry.
+MAX_LABELLED_DECLARATIONS = 3
 
 
 def _event_lines(ax: Any, data: RunData, *, estimated_onset: bool = True) -> None:
@@ -41,11 +43,16 @@ def _event_lines(ax: Any, data: RunData, *, estimated_onset: bool = True) -> Non
         vline(ev.t_s, f"fault {verb} day {data.day(ev.t_s):.2f} ({ev.fault_type})", color="crimson",
               linestyle="--" if ev.event == "start" else ":")
     if data.anomaly is not None:
-        for r in data.anomaly.declarations:
+        decl = data.anomaly.declarations
+        many = len(decl) > MAX_LABELLED_DECLARATIONS  # a flapping flag: one legend entry, not dozens
+        for r in decl:
             t = declared_epoch(r)
-            vline(t, f"anomaly declared day {data.day(t):.2f}: {r.anomaly_class}", color="black", linestyle="-")
+            label = (f"anomaly declared ({len(decl)} times)" if many
+                     else f"anomaly declared day {data.day(t):.2f}: {r.anomaly_class}")
+            vline(t, label, color="black", linestyle="-")
             if estimated_onset and r.onset_s is not None:
-                vline(r.onset_s, f"estimated onset day {data.day(r.onset_s):.2f}", color="dimgray", linestyle="-.")
+                vline(r.onset_s, "estimated onset" if many else f"estimated onset day {data.day(r.onset_s):.2f}",
+                      color="dimgray", linestyle="-.")
 
 
 def _time_axis(ax: Any, data: RunData) -> None:
@@ -201,7 +208,7 @@ def plot_measurements(data: RunData, path: Path | None = None) -> Any:
     kinds = list(data.measurements)
     fig, ax = F.new_figure(size=(10.0, max(2.6, 1.2 + 0.9 * len(kinds))))
     sources = sorted({s for _, src in data.measurements.values() for s in src})
-    colors = {s: F._PALETTE[i % len(F._PALETTE)] for i, s in enumerate(sources)}
+    colors = {s: F.PALETTE[i % len(F.PALETTE)] for i, s in enumerate(sources)}
     for row, kind in enumerate(kinds):
         t, src = data.measurements[kind]
         lanes = sorted(set(src))

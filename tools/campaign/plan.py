@@ -16,6 +16,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -161,9 +162,19 @@ def _faults(case: FaultCase, default_onset: float | None) -> tuple:
     return case.faults
 
 
-def _cell_error(loaded: LoadedCampaign, bi: int, fi: int, vi: int, cell: Cell, exc: DecodeError) -> ConfigError:
-    if exc.path.startswith("sim.faults"):
+def _cell_error(loaded: LoadedCampaign, bi: int, fi: int, vi: int, cell: Cell, exc: DecodeError,
+                data: dict, var: NetworkVariant) -> ConfigError:
+    m = re.match(r"fsw\.gating\[(\d+)\]", exc.path)
+    if exc.path.startswith("sim.faults") or (exc.path == "sim" and "fault" in exc.got):
         where = f"matrix[{bi}].faults[{fi}]"
+    elif m:
+        k = int(m.group(1))
+        net = data["fsw"]["gating"][k].get("network") if k < len(data["fsw"]["gating"]) else None
+        where = f"matrix[{bi}].networks[{vi}]"
+        if net in var.params:
+            where += f".params.{net}"
+        elif var.gating:
+            where += f".gating[{k}]"
     elif exc.path.startswith("fsw.gating") or exc.path.startswith("fsw.detector"):
         where = f"matrix[{bi}].networks[{vi}]"
     elif loaded.config.overrides:
@@ -198,7 +209,7 @@ def expand(loaded: LoadedCampaign, extract_weights: str | None = None) -> Campai
                     try:
                         scen = typed.decode(ScenarioConfig, data)
                     except DecodeError as exc:
-                        raise _cell_error(loaded, bi, fi, vi, cell, exc) from None
+                        raise _cell_error(loaded, bi, fi, vi, cell, exc, data, var) from None
                     det = scen.fsw.detector
                     calibrated = det.calibration is not None and det.calibration.network == det.network
                     if det.calibration is not None and not calibrated:

@@ -102,6 +102,8 @@ def collect_histories(runs_dir: Path, ids: list[str]) -> tuple[list[np.ndarray],
             continue
         data = load_weights(runs_dir, rid)
         filters = tuple(str(s) for s in data["filters"])
+        if data["weights"].size == 0:
+            continue  # the network published nothing (a run shorter than one batch)
         if names is None:
             names = filters
         elif filters != names:
@@ -171,10 +173,15 @@ def run(args) -> int:
     if outcome.interrupted:
         print("navbank calibrate: interrupted; nothing written (run the same command again to resume)", file=sys.stderr)
         return 130
-    histories, filters, used = collect_histories(runs_dir, [t.id for t in plan.tasks])
+    try:
+        histories, filters, used = collect_histories(runs_dir, [t.id for t in plan.tasks])
+    except CalibrationError as exc:
+        print(f"navbank calibrate: {exc}", file=sys.stderr)
+        return 1
     failed = len(plan.tasks) - len(used)
     if failed:
-        print(f"navbank calibrate: {failed} nominal run(s) failed or missing (see {runs_dir}/runs.jsonl); "
+        print(f"navbank calibrate: {failed} nominal run(s) failed, missing or without {args.network} weights "
+              f"(see {runs_dir}/runs.jsonl); "
               f"calibrating on {len(used)}", file=sys.stderr)
     if not histories:
         print("navbank calibrate: no successful nominal run to calibrate on", file=sys.stderr)

@@ -103,7 +103,7 @@ def run(args) -> int:
     msg = (f"campaign {plan.name}: {outcome.finished} run(s) this time ({outcome.failed} failed), "
            f"{outcome.skipped} already done, {len(plan.tasks)} planned; "
            + (f"{outcome.runs_per_min:.2f} runs/min with {outcome.workers} {outcome.executor} worker(s)"
-              if outcome.finished else "nothing to run"))
+              if outcome.finished else ("nothing to run" if not outcome.submitted else "no run finished")))
     if outcome.repaired_bytes:
         msg += f"; cut a torn last line ({outcome.repaired_bytes} bytes) from runs.jsonl"
     print(msg, file=sys.stderr)

@@ -1,0 +1,106 @@
+"""A recorded run as replay needs it: raw payload bytes in ``log_time`` order, run id, FSW config.
+
+Republishing must send exactly the bytes the ground received, so messages are read as raw
+records (not decoded), each with its MCAP topic, log/publish times, the publisher sequence
+number the logger stored, and the channel's schema name. Complete files are read in
+``log_time`` order through the seeking reader; files cut short (no footer) in file order, which
+is the logger's receive order, up to the last complete chunk.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+
+from mcap.reader import SeekingReader
+from mcap.records import Channel, Message, Schema
+
+from ground.mcap_io.reader import is_complete, iter_records, read_attachments, read_metadata, summary
+from ground.mcap_io.recorder import INVALID_PREFIX
+
+#: Name of the attachment ``navbank run`` writes: the complete scenario YAML of the run.
+CONFIG_ATTACHMENT = "config.yaml"
+
+
+class RecordingError(ValueError):
+    """The file lacks something replay needs (its run id, its configuration, any message)."""
+
+
+@dataclass(frozen=True, slots=True)
+class RawMessage:
+    """One recorded message, undecoded."""
+
+    topic: str  # MCAP topic, e.g. "/fsw/weights/chi2" or "/_invalid/sim/measurements"
+    log_time_ns: int  # when the ground received it
+    publish_time_ns: int  # the message's own timestamp
+    sequence: int  # publisher sequence number (as stored by the logger, mod 2**32)
+    data: bytes
+    schema: str  # schema name, e.g. "navbank.Measurement/v1" ('' for schema-less channels)
+
+    @property
+    def zenoh_topic(self) -> str:
+        """Topic to publish on: the key without run prefix; invalid payloads go back where they came from."""
+        t = self.topic
+        if t.startswith(INVALID_PREFIX + "/"):
+            t = t[len(INVALID_PREFIX) :]
+        return t.strip("/")
+
+
+def iter_raw(path: str | os.PathLike, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
+    """Every message of ``path`` (optionally only MCAP ``topics``) as :class:`RawMessage`."""
+    path = os.fspath(path)
+    wanted = None if topics is None else {"/" + t.strip("/") for t in topics}
+    if is_complete(path):
+        with open(path, "rb") as f:
+            reader = SeekingReader(f, validate_crcs=True)
+            for schema, channel, msg in reader.iter_messages(topics=wanted, log_time_order=True):
+                yield RawMessage(channel.topic, msg.log_time, msg.publish_time, msg.sequence, bytes(msg.data),
+                                 schema.name if schema is not None else "")
+        return
+    schemas: dict[int, Schema] = {}
+    channels: dict[int, Channel] = {}
+    for record in iter_records(path):
+        if isinstance(record, Schema):
+            schemas[record.id] = record
+        elif isinstance(record, Channel):
+            channels[record.id] = record
+        elif isinstance(record, Message):
+            channel = channels.get(record.channel_id)
+            if channel is None or (wanted is not None and channel.topic not in wanted):
+                continue
+            schema = schemas.get(channel.schema_id)
+            yield RawMessage(channel.topic, record.log_time, record.publish_time, record.sequence, bytes(record.data),
+                             schema.name if schema is not None else "")
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """What the file says about the run it holds."""
+
+    path: str
+    run_id: str  # '' if the file has no navbank.run metadata
+    counts: dict[str, int]  # messages per MCAP topic
+    complete: bool  # footer present
+    config_text: str | None  # the attached scenario YAML, if any
+    config_name: str  # its attachment name
+
+
+def run_info(path: str | os.PathLike) -> RunInfo:
+    """Run id, per-topic counts and the attached configuration of a recorded run."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise RecordingError(f"{path}: no such file")
+    complete = is_complete(path)  # also checks the magic (McapReadError, a ValueError)
+    meta = read_metadata(path).get("navbank.run", {})
+    attachments = read_attachments(path)
+    name = CONFIG_ATTACHMENT if CONFIG_ATTACHMENT in attachments else next(
+        (n for n, (media, _) in attachments.items() if media == "application/yaml"), "")
+    text = None
+    if name:
+        try:
+            text = attachments[name][1].decode("utf-8")
+        except UnicodeDecodeError:
+            raise RecordingError(f"{path}: attachment {name} is not UTF-8 text") from None
+    return RunInfo(path=path, run_id=meta.get("run_id", ""), counts=summary(path), complete=complete,
+                   config_text=text, config_name=name)

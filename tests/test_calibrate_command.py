@@ -1,0 +1,87 @@
+"""`navbank calibrate`: nominal runs through the campaign machinery, weight histories, detector YAML."""
+
+import numpy as np
+import pytest
+
+from fsw.fdir.config import DetectorConfig
+from fsw.interface.yamlconfig import load_file
+from tools.campaign.plan import expand
+from tools.campaign.store import load_weights, read_rows
+from tools.cli import main
+from tools.commands.calibrate import nominal_campaign
+from tools.inprocess import run_in_process
+from tools.scenario import ScenarioConfig, load_scenario
+
+SCENARIO = """\
+name: short
+sim:
+  trajectory: {span_days: 2.0}
+  faults:
+    - {type: optical-bias, onset_day: 1.0, sample_px: 2.0, line_px: 3.0}
+fsw:
+  budget: {mode: work-units}
+  gating:
+    - {network: magill}
+  detector: {network: magill}
+"""
+
+
+def test_nominal_plan_has_no_fault_no_detector_and_the_network(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "short.yaml").write_text(SCENARIO)
+    plan = expand(nominal_campaign("short.yaml", "chi2", 4, 1001), extract_weights="chi2")
+    assert [t.seed for t in plan.tasks] == [1001, 1002, 1003, 1004]
+    for t in plan.tasks:
+        assert t.scenario["sim"]["faults"] == [] and t.fault_class == "none"
+        assert t.scenario["fsw"]["detector"]["calibration"] is None
+        assert t.scenario["fsw"]["detector"]["network"] == "chi2"
+        assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["magill", "chi2"]
+        assert t.payload()["extract_weights"] == "chi2"
+
+
+@pytest.mark.slow
+def test_calibrate_writes_detector_and_scenario(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "short.yaml").write_text(SCENARIO.replace("    - {network: magill}", "    - {network: magill}\n"
+                                                          "    - {network: chi2, batch_size: 200}"))
+    args = ["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--seeds", "10", "--target-fa", "0.1",
+            "--workers", "2", "--out", "det.yaml", "--write-scenario", "cal.yaml", "--runs-dir", "runs", "--quiet"]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert "threshold" in printed and "achieved FA" in printed and "10 nominal runs" in printed
+    det = load_file(DetectorConfig, tmp_path / "det.yaml")
+    assert det.network == "chi2" and det.filters == ("radio", "optical", "fused") and det.target_fa == 0.1
+    assert f"{det.threshold:.6g}" in printed
+    scen = load_file(ScenarioConfig, tmp_path / "cal.yaml")
+    assert scen.fsw.detector.network == "chi2" and scen.fsw.detector.calibration == det
+    assert scen.sim.faults == load_scenario("short.yaml").sim.faults  # only fsw.detector changes
+    assert "reproduce: navbank calibrate --scenario short.yaml --network chi2 --seeds 10" in (tmp_path / "cal.yaml").read_text()
+
+    # the stored history is the FSW's chi2 weight telemetry of that seed, batch by batch
+    rows = read_rows(tmp_path / "runs" / "runs.jsonl").rows
+    assert len(rows) == 10 and all(r["status"] == "ok" for r in rows)
+    r0 = min(rows, key=lambda r: r["seed"])
+    stored = load_weights(tmp_path / "runs", r0["id"])
+    nominal = load_scenario("short.yaml")
+    nominal = nominal.__class__(**{**nominal.__dict__, "sim": nominal.sim.__class__(
+        **{f: getattr(nominal.sim, f) for f in nominal.sim.__dataclass_fields__ if f != "faults"})})
+    direct = run_in_process(nominal, r0["seed"]).topic("fsw/weights/chi2")
+    assert len(direct) == stored["weights"].shape[0] >= 5
+    np.testing.assert_array_equal(stored["weights"], np.array([m.weights for m in direct]))
+    np.testing.assert_array_equal(stored["t_s"], np.array([m.t_s for m in direct]))
+
+    # nominal weights sit near 1/N and the nominal band was learned from them
+    pooled = np.concatenate([load_weights(tmp_path / "runs", r["id"])["weights"] for r in rows])
+    np.testing.assert_allclose(det.nominal_mean, pooled.mean(axis=0), rtol=1e-12)
+
+    # again: the runs are reused, nothing is flown, the same calibration comes out
+    assert main(args) == 0
+    assert len(read_rows(tmp_path / "runs" / "runs.jsonl").rows) == 10
+    assert load_file(DetectorConfig, tmp_path / "det.yaml") == det
+
+
+def test_calibrate_rejects_bad_arguments(capsys):
+    assert main(["calibrate", "--seeds", "0"]) == 2
+    assert main(["calibrate", "--target-fa", "1.5"]) == 2
+    assert main(["calibrate", "--scenario", "no-such-scenario", "--seeds", "2"]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 3
