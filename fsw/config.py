@@ -122,6 +122,8 @@ class FswConfig:
         if unknown:
             raise ValueError(f"detector.high_q_filters names unknown filters {unknown}")
         cal = self.detector.calibration
+        if cal is not None and cal.network != self.detector.network:
+            raise ValueError(f"detector calibration is for network {cal.network!r}, the detector watches {self.detector.network!r}")
         if cal is not None and tuple(cal.filters) != tuple(filters):
             raise ValueError(f"detector calibration is for filters {list(cal.filters)}, the bank has {filters}")
 

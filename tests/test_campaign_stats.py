@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy import optimize, stats
 
+from tools.campaign.report import render
 from tools.campaign.stats import binomial, compute, latency_stats, poisson_rate
 from tools.cli import main
 
@@ -165,3 +166,14 @@ def test_stats_only_command_writes_summary_and_report(tmp_path, capsys):
     assert "| Ideal | 0.3333 | 0.3333 | 0.3333 |" in report
     assert "## Failed runs" in report and "ValueError: boom" in report
     assert main(["campaign", "--stats-only", str(tmp_path / "nothing-here")]) == 2
+
+
+def test_planned_cell_without_rows_keeps_its_fault_class():
+    plan = {"name": "p", "cells": [{"scenario": "s", "fault": "big", "variant": "v", "key": "s / big / v",
+                                    "fault_class": OPT, "detector": {"network": "magill", "calibrated": True}}],
+            "runs": [{"id": "x1", "cell": "s / big / v", "seed": 1}]}
+    s = compute([], plan)
+    (c,) = s["cells"]
+    assert c["fault_class"] == OPT and c["detector"]["network"] == "magill"
+    assert c["detection"]["n"] == 0 and c["detection"]["rate"] is None and c["runs"]["missing"] == 1
+    assert "| s | big | v | magill | 0 | n/a |" in render(s)

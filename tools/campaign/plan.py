@@ -78,10 +78,17 @@ class CampaignPlan:
     tasks: list[RunTask]
     cells: list[Cell] = field(default_factory=list)
 
+    def _cell_facts(self, cell: Cell) -> dict:
+        t = next((t for t in self.tasks if t.cell == cell), None)
+        if t is None:
+            return {}
+        return {"fault_class": t.fault_class,
+                "detector": {"network": t.detector_network, "calibrated": t.detector_calibrated}}
+
     def to_json(self) -> dict:
         return {
             "name": self.name, "description": self.description,
-            "cells": [c.as_dict() | {"key": c.key} for c in self.cells],
+            "cells": [c.as_dict() | {"key": c.key} | self._cell_facts(c) for c in self.cells],
             "runs": [{"id": t.id, "cell": t.cell.key, "seed": t.seed} for t in self.tasks],
         }
 

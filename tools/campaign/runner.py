@@ -160,6 +160,10 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
             out.interrupted = out.interrupted or intr.count > 0
         if progress:
             progress.close()
+    except BaseException:
+        if owned is not None:
+            owned.cancel()  # do not wait for running runs on the way out of an error
+        raise
     finally:
         store.close()
         if owned is not None:

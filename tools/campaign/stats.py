@@ -95,8 +95,9 @@ def _diagnosed(summary: dict) -> str:
 def _cell_stats(key: str, cell: dict, rows: list[dict], planned: int | None, level: float) -> dict[str, Any]:
     ok = [r for r in rows if r.get("status") == "ok" and r.get("summary")]
     failed = [r for r in rows if r.get("status") != "ok"]
-    fault_class = rows[0].get("fault_class", NOMINAL) if rows else NOMINAL
-    detector = rows[0].get("detector", {}) if rows else {}
+    fault_class = rows[0].get("fault_class", NOMINAL) if rows else cell.pop("fault_class", NOMINAL)
+    detector = rows[0].get("detector", {}) if rows else cell.pop("detector", {})
+    cell = {k: cell[k] for k in ("scenario", "fault", "variant") if k in cell}
     calibrated = bool(detector.get("calibrated", True))
     out: dict[str, Any] = {
         "key": key, **cell, "fault_class": fault_class, "detector": detector,
@@ -219,7 +220,7 @@ def compute(rows: list[dict], plan: dict | None = None, *, level: float = LEVEL,
         plan_ids = {r["id"] for r in plan.get("runs", [])}
         for c in plan.get("cells", []):
             cell_order.append(c["key"])
-            cell_info[c["key"]] = {"scenario": c["scenario"], "fault": c["fault"], "variant": c["variant"]}
+            cell_info[c["key"]] = {k: c[k] for k in ("scenario", "fault", "variant", "fault_class", "detector") if k in c}
         for r in plan.get("runs", []):
             planned_by_cell[r["cell"]] += 1
     rows_by_cell: dict[str, list[dict]] = defaultdict(list)
@@ -231,7 +232,7 @@ def compute(rows: list[dict], plan: dict | None = None, *, level: float = LEVEL,
         if key not in cell_info:
             cell_order.append(key)
             cell_info[key] = dict(r["cell"])
-    cells = [_cell_stats(k, cell_info[k], sorted(rows_by_cell.get(k, []), key=lambda r: r.get("seed", 0)),
+    cells = [_cell_stats(k, dict(cell_info[k]), sorted(rows_by_cell.get(k, []), key=lambda r: r.get("seed", 0)),
                          planned_by_cell.get(k) if plan else None, level) for k in cell_order]
     counted = [r for rs in rows_by_cell.values() for r in rs]
     return {
