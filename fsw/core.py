@@ -100,7 +100,8 @@ class FswCore:
             self.detector = AnomalyDetector(det.calibration, config.families())
         self.guard = SequenceGuard(window=config.reorder_window)
         self.counters = CoreCounters()
-        self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s, on_error=self._on_stage_error)
+        # a stage that raises is contained and counted by the executive (BudgetReport.errors)
+        self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s)
         self.t0 = init.t_s
         self._next_estimate = init.t_s
         self._next_anomaly = init.t_s
@@ -200,10 +201,6 @@ class FswCore:
             self._emit_status("running", t)
             while self._next_status <= t:
                 self._next_status += tel.status_every_s
-
-    def _on_stage_error(self, err: Any) -> None:
-        # contained by the executive; surfaced in BudgetReport.errors and the status counters
-        pass
 
     # -- telemetry -----------------------------------------------------------------------------
     def _emit_weights(self, upd: WeightsUpdate) -> None:

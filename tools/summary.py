@@ -63,6 +63,7 @@ def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, 
     reports = by.get(topics.FSW_ANOMALY, [])
     first = next((r for r in reports if r.flag), None)
     anomaly: dict[str, Any] = {
+        "detector": bool(reports),
         "declared": first is not None,
         "time": None, "time_day": None, "onset_true": onset_true,
         "onset_true_day": None if onset_true is None else (onset_true - t0) / DAY_S,
@@ -168,7 +169,9 @@ def describe(summary: dict) -> str:
             mw = "  ".join(f"{f} {w:.3f}" for f, w in g["mean_weights_after_onset"].items())
             lines.append(f"   after onset [{net}]: {mw}")
     a = s["anomaly"]
-    if a["declared"]:
+    if not a.get("detector", True):
+        lines.append("anomaly detector OFF: the scenario has no detector calibration (see `navbank calibrate`)")
+    elif a["declared"]:
         when = f"day {a['time_day']:.2f}"
         if a["false_alarm"]:
             lines.append(f"ANOMALY declared on {when} by {a['network']}: {a['class']} (confidence {a['confidence']:.2f}) "
