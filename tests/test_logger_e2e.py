@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import multiprocessing as mp
+import queue
 import signal
 import subprocess
 import sys
@@ -37,7 +38,7 @@ def _end(run: str, source: str, pubs, **extra) -> m.RunStatus:
 
 def sim_proc(cfg, run: str, n: int, out) -> None:
     with T.open_session(cfg) as s:
-        T.wait_for_consumers(s, run, ["ground"], timeout_s=20)
+        T.wait_for_consumers(s, run, ["ground", "fsw"], timeout_s=20)
         meas, truth, status = (T.Publisher(s, run, t) for t in ("sim/measurements", "sim/truth", "sim/status"))
         status.put(m.RunStatus(t_s=6e8, timestamp=_stamp(0), run_id=run, source="sim", state="start"))
         for i in range(n):
@@ -49,13 +50,17 @@ def sim_proc(cfg, run: str, n: int, out) -> None:
         s.put(f"navbank/{run}/sim/measurements", b"{broken")
         end = _end(run, "sim", [meas, truth, status], published=n)
         status.put(end)
-        out.put(("sim", T.drain(s, run, end, ["ground"], timeout_s=30)))
+        out.put(("sim", T.drain(s, run, end, ["ground", "fsw"], timeout_s=30)))
 
 
 def fsw_proc(cfg, run: str, n: int, out) -> None:
-    with T.open_session(cfg) as s:
+    """Publishes telemetry while the sim runs and ends after the sim's end of run, as the FSW does."""
+    with T.open_session(cfg) as s, T.Subscriber(s, run, ("sim/status",), role="fsw") as sub:
         T.wait_for_consumers(s, run, ["ground"], timeout_s=20)
         weights, budget, status = (T.Publisher(s, run, t) for t in ("fsw/weights/chi2", "fsw/budget", "fsw/status"))
+        deadline = time.monotonic() + 60
+        while not sub.finished(["sim"]) and time.monotonic() < deadline:
+            sub.recv(timeout=0.05)
         for i in range(n):
             weights.put(m.FilterWeights(t_s=6e8 + i, timestamp=_stamp(i), network="chi2", batch=i,
                                         filters=("radio", "optical", "fused"), weights=(0.9, 0.06, 0.04)))
@@ -63,13 +68,33 @@ def fsw_proc(cfg, run: str, n: int, out) -> None:
                                       utilisation=0.3, processed=3, deferred=0, backlog=0, overruns=0))
         end = _end(run, "fsw", [weights, budget, status])
         status.put(end)
-        out.put(("fsw", T.drain(s, run, end, ["ground"], timeout_s=30)))
+        acked = T.drain(s, run, end, ["ground"], timeout_s=30)
+        assert sub.wait_acknowledged(["sim"], timeout_s=10)
+        out.put(("fsw", acked))
 
 
 def logger_proc(cfg, run: str, path: str, out, ready) -> None:
     res = run_logger(run, path, cfg, ready_event=ready, attachments=[("scenario.yaml", b"name: test\n", "application/yaml")],
                      metadata={"scenario": "unit"}, print_fn=None)
     out.put(("logger", res))
+
+
+def _collect(out, n: int, procs, timeout_s: float = 90.0) -> dict:
+    """n results from the children, failing at once if one of them dies."""
+    results: dict = {}
+    deadline = time.monotonic() + timeout_s
+    while len(results) < n:
+        assert time.monotonic() < deadline, f"timed out; got {sorted(results)}"
+        try:
+            kind, value = out.get(timeout=0.5)
+            results[kind] = value
+        except queue.Empty:
+            dead = [p.name for p in procs if p.exitcode not in (None, 0)]
+            if dead and out.empty():
+                for p in procs:
+                    p.kill()
+                raise AssertionError(f"{', '.join(dead)} failed")
+    return results
 
 
 def _join(procs, timeout=20):
@@ -92,10 +117,10 @@ def test_logger_records_a_whole_run_and_ends_by_itself(tmp_path):
     sim = CTX.Process(target=sim_proc, args=(cfgs["sim"], run, n, out), name="sim")
     fsw = CTX.Process(target=fsw_proc, args=(cfgs["fsw"], run, 500, out), name="fsw")
     sim.start(), fsw.start()
-    results = dict(out.get(timeout=90) for _ in range(3))
+    results = _collect(out, 3, [sim, fsw, logger])
     _join([sim, fsw, logger])
     assert [p.exitcode for p in (sim, fsw, logger)] == [0, 0, 0]
-    assert results["sim"] == {"ground": True} and results["fsw"] == {"ground": True}
+    assert results["sim"] == {"ground": True, "fsw": True} and results["fsw"] == {"ground": True}
     res = results["logger"]
     assert res.ended_by == "end-of-run" and set(res.finished) == {"sim", "fsw"}
     assert res.unknown == {"sim/debug": 1} and res.invalid == {"sim/measurements": 1} and res.gaps == {}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import multiprocessing as mp
+import queue
 import time
 
 from fsw.interface import messages as m
@@ -63,7 +64,15 @@ def test_processes_that_only_know_the_logger_reach_each_other(tmp_path):
     procs += [CTX.Process(target=fsw, args=(spoke, out)), CTX.Process(target=sim, args=(spoke, out, 2000))]
     for p in procs[1:]:
         p.start()
-    results = dict(out.get(timeout=90) for _ in range(3))
+    results: dict = {}
+    deadline = time.monotonic() + 90
+    while len(results) < 3 and time.monotonic() < deadline:
+        try:
+            kind, value = out.get(timeout=0.5)
+            results[kind] = value
+        except queue.Empty:
+            assert all(p.exitcode in (None, 0) for p in procs), "a process failed"
+    assert len(results) == 3, f"timed out; got {sorted(results)}"
     for p in procs:
         p.join(20)
         alive = p.is_alive()

@@ -162,20 +162,26 @@ def free_tcp_ports(n: int, host: str = "127.0.0.1") -> list[int]:
 
 
 def mesh_configs(
-    roles: Sequence[str], base: TransportConfig | None = None, host: str = "127.0.0.1", ports: Sequence[int] | None = None
+    roles: Sequence[str],
+    base: TransportConfig | None = None,
+    host: str = "127.0.0.1",
+    ports: Sequence[int] | None = None,
+    gossip: bool = False,
 ) -> dict[str, TransportConfig]:
     """A full mesh for processes started together (``navbank run``): one fixed port per role.
 
     Role ``i`` listens on its own port and connects to roles ``0..i-1``, so every pair has exactly
-    one direct link whatever gossip does. Start the roles in the given order (a later role's
-    connects are retried until ``connect_timeout_s``).
+    one direct link. Gossip is off by default here: the mesh does not need it, and the links are
+    then exactly the configured ones. Start the roles in the given order; a later role's connects
+    are retried until ``connect_timeout_s``, and every earlier role must still be running then
+    (a role that has already closed its session makes the later one fail to open).
     """
     base = base or TransportConfig()
     ports = list(ports) if ports is not None else free_tcp_ports(len(roles), host)
     if len(ports) != len(roles):
         raise ValueError(f"{len(roles)} roles but {len(ports)} ports")
     eps = [f"tcp/{host}:{p}" for p in ports]
-    return {r: replace(base, listen=(eps[i],), connect=tuple(eps[:i])) for i, r in enumerate(roles)}
+    return {r: replace(base, listen=(eps[i],), connect=tuple(eps[:i]), gossip=gossip) for i, r in enumerate(roles)}
 
 
 def add_transport_arguments(parser: argparse.ArgumentParser) -> None:
