@@ -68,9 +68,6 @@ class DetectorSection:
     calibration: DetectorConfig | None = spec(
         None, doc="calibrated thresholds and nominal band (from `navbank calibrate`); none: detector off"
     )
-    high_q_filters: tuple[str, ...] = spec(
-        (), doc="filters that carry inflated dynamic process noise (the -Q filters of seed 001 §4.4)"
-    )
 
 
 @dataclass(frozen=True)
@@ -118,9 +115,6 @@ class FswConfig:
         filters = [f.name for f in self.bank.filters]
         if self.gating and self.detector.network not in names:
             raise ValueError(f"detector.network {self.detector.network!r} is not among the gating networks {names}")
-        unknown = [n for n in self.detector.high_q_filters if n not in filters]
-        if unknown:
-            raise ValueError(f"detector.high_q_filters names unknown filters {unknown}")
         cal = self.detector.calibration
         if cal is not None and cal.network != self.detector.network:
             raise ValueError(f"detector calibration is for network {cal.network!r}, the detector watches {self.detector.network!r}")
@@ -128,7 +122,8 @@ class FswConfig:
             raise ValueError(f"detector calibration is for filters {list(cal.filters)}, the bank has {filters}")
 
     def families(self) -> tuple[FilterFamily, ...]:
-        """Family tags of each filter, derived from the kinds it processes (never from names)."""
+        """Family tags of each filter, derived from the kinds it processes and its ``high_q`` flag
+        (never from names)."""
         out = []
         for f in self.bank.filters:
             fams = []
@@ -137,7 +132,7 @@ class FswConfig:
             if "optical" in f.processes:
                 fams.append("optical")
             out.append(FilterFamily(name=f.name, families=tuple(fams) or ("other",),
-                                    high_q=f.name in self.detector.high_q_filters))
+                                    high_q=f.high_q))
         return tuple(out)
 
     def with_initial_state(self, state: InitialState) -> "FswConfig":

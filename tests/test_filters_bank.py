@@ -203,3 +203,67 @@ def test_ekf_covariances_stay_spd_along_a_stream():
         for P in bank.stack.P:
             assert is_spd(P)
     assert bank.processed_count == 1500
+
+
+def test_doppler_count_reuses_the_propagation_leg_after_an_update(run):
+    """The start of a Doppler count from the last propagation leg (symplectic inverse of its
+    STM, corrected for an update at the leg's end) equals propagating the state back."""
+    bank = _bank(run)
+    st = bank.stack
+    t = st.t + 3600.0
+    st.propagate_to(t - 60.0)
+    st.propagate_to(t)
+    L = st.layout
+    st.x[:, 0:3] += np.array([0.8, -0.5, 0.3])  # as a measurement update at t would
+    st.x[:, 3:6] += 2e-6
+    st.x[:, L.slices["srp_bias"]] += 0.01
+    assert st._last_leg is not None
+    h_leg, H_leg = st.predict_doppler("DSS-14", t, 60.0, st.x)
+    h_back, H_back = st.predict_doppler("DSS-14", t, 60.0, st.x.copy())  # not the bank state: propagates back
+    np.testing.assert_allclose(h_leg, h_back, rtol=0, atol=1e-11)  # km/s; the noise is 1e-7
+    scale = np.sqrt(np.diagonal(st.P, axis1=1, axis2=2))
+    for i in range(3):
+        ref = np.max(np.abs(H_back[i, 0] * scale[i]))
+        assert np.max(np.abs((H_leg[i, 0] - H_back[i, 0]) * scale[i])) < 1e-8 * ref
+
+
+def test_doppler_noise_carries_the_clock_short_term_instability(run):
+    bank = _bank(run)
+    v = bank.stack.doppler_clock_variance(60.0)
+    # DSAC-class default: white FM 1.6e-15 Allan deviation at one day, σ_y² ∝ 1/τ, plus the
+    # random-walk FM that brings the one-day deviation to 2e-15 (σ_y² ∝ τ)
+    white = (1.6e-15) ** 2 * 86400.0 / 60.0
+    walk = ((2.0e-15) ** 2 - (1.6e-15) ** 2) * 60.0 / 86400.0
+    expect = 299792.458**2 * (white + walk)
+    assert v[bank.index("radio")] == pytest.approx(expect, rel=1e-12)
+    assert np.sqrt(expect) * 1e6 == pytest.approx(0.0182, abs=2e-4)  # mm/s, vs 0.1 mm/s noise
+    assert v[bank.index("optical")] == 0.0  # no clock states, no clock model
+
+
+def test_batches_count_from_the_initial_epoch_unless_configured(run):
+    bank = _bank(run)
+    assert bank.stack.batch_origin == run.t0
+    cfg = dataclasses.replace(preset("nominal"), batch_origin_tdb_s=0.0)
+    other = FilterBank(cfg, run.t0, run.position_km, run.velocity_km_s, env=ENV)
+    assert other.stack.batch_origin == 0.0
+    boundary = (np.floor(run.t0 / 86400.0) + 1) * 86400.0
+    assert other.stack._events(run.t0 + 86400.0)[0] == boundary
+    assert bank.stack._events(run.t0 + 86400.0)[0] == run.t0 + 86400.0
+
+
+def test_presets_flag_the_high_process_noise_filters():
+    for name in ("acs-q", "process-noise-q"):
+        flags = {f.name: f.high_q for f in preset(name).filters}
+        assert flags == {"radio": False, "optical": False, "fused": False,
+                         "radio-Q": True, "optical-Q": True, "fused-Q": True}
+    assert not any(f.high_q for f in preset("nominal").filters)
+
+
+def test_acs_direction_states_follow_seed_001_table_1(run):
+    bank = _bank(run)
+    L = bank.stack.layout
+    tilt = L.slices["acs_tilt"]
+    np.testing.assert_allclose(np.sqrt(np.diagonal(bank.stack.P[:, tilt, tilt], axis1=1, axis2=2)), np.radians(3.0))
+    # the process-noise filters replace the ACS model by a polynomial acceleration
+    pn = FilterBank(preset("process-noise-q"), run.t0, run.position_km, run.velocity_km_s, env=ENV)
+    assert not pn.stack.layout.has("acs_tilt")

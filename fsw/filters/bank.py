@@ -239,17 +239,22 @@ class FilterBank:
             # only propagation (which any later measurement would do) has happened
             self.rejected["geometry"] += 1
             raise MeasurementRejected("geometry", str(exc)) from None
-        scale = self._sigma_scale[meas.kind]
-        var = (sigma[None, :] * scale[:, None]) ** 2
-        if meas.kind == "doppler":
+        kind = meas.kind
+        var = self._sigma_scale[kind][:, None] * sigma  # (N, m) per-filter sigmas
+        var *= var
+        if kind == "doppler":
             var += self.stack.doppler_clock_variance(float(meas.count_time_s))[:, None]
-        R = var[:, :, None] * _EYES[sigma.size] if sigma.size in _EYES else var[:, :, None] * np.eye(sigma.size)
-        does = self._process_masks[meas.kind] & self.active
-        gate = None if np.all(np.isinf(self._gate)) else self._gate
+        m = sigma.size
+        R = var[:, :, None] if m == 1 else var[:, :, None] * (_EYES[m] if m in _EYES else np.eye(m))
+        does = self._process_masks[kind] & self.active
+        gate = None if self._no_gate() else self._gate
         residual, S, chi2, processed = self.stack.update(value, h, H, R, does, gate)
         self.processed_count += 1
-        return BankRecord(t=float(meas.t_s), seq=int(meas.seq), kind=str(meas.kind), filters=self.names,
+        return BankRecord(t=float(meas.t_s), seq=int(meas.seq), kind=str(kind), filters=self.names,
                           residual=residual, S=S, chi2=chi2, processed=processed.copy(), active=self.active.copy())
+
+    def _no_gate(self) -> bool:
+        return bool(np.isinf(self._gate).all())
 
     def propagate_to(self, t: float) -> None:
         """Advance every filter to t without a measurement (e.g. for an estimate output)."""

@@ -15,6 +15,14 @@ Propagation between measurements (t → t'):
 * at every batch boundary the batched stochastic parameters step as ECRVs (seed 000 eqs.
   25–26; seed 001 Table 1), the polynomial acceleration coefficients are re-initialised; at a
   manoeuvre epoch the planned Δv is added and its execution uncertainty added to P_vv.
+  Batches are counted from the bank's initial epoch (the spacecraft schedules its own daily
+  ACS activity from the start of the arc) unless ``batch_origin_tdb_s`` says otherwise.
+
+Measurement models: one-way range and Doppler (:mod:`fsw.models.radiometric`), optical
+(:mod:`fsw.models.optical`). A Doppler count needs the state at its start, T before the time
+tag; with one measurement per count interval that is exactly where the last propagation leg
+began, so the leg's start state and STM serve (no propagation back) — also after a measurement
+update at the leg's end, carried to the start through the STM.
 """
 
 from __future__ import annotations
@@ -147,6 +155,8 @@ class EKFStack:
             self._z_to_state[6 + qi, col] = 1.0
             self._state_to_q[col, qi] = 1.0
         self._clock = (L.slices["clock"].start, L.slices["clock"].stop) if L.has("clock") else None
+        self._phi_template = np.zeros((N, n, n))
+        self._phi_template[:, np.arange(6, n), np.arange(6, n)] = 1.0
         self.batched: list[_Batched] = []
         if L.has("srp_stoch"):
             self.batched.append(_Batched(L.slices["srp_stoch"].start,
@@ -182,9 +192,7 @@ class EKFStack:
 
     def transition(self, Y: np.ndarray, h: float) -> np.ndarray:
         """Full Φ (N, n, n) from the dynamics sensitivity Y (N, 6, 6 + n_q) over a step h."""
-        N, n = self.x.shape
-        Phi = np.zeros((N, n, n))
-        Phi[:, np.arange(6, n), np.arange(6, n)] = 1.0
+        Phi = self._phi_template.copy()  # identity on the parameter rows
         Phi[:, 0:6, :] = Y @ self._z_to_state
         if self._clock is not None:
             c0, c1 = self._clock
@@ -197,7 +205,7 @@ class EKFStack:
         if self._clock is not None:
             c0, c1 = self._clock
             P[:, c0:c1, c0:c1] += clock_process_noise(dt, self.clock_q)[:, : c1 - c0, : c1 - c0]
-        if np.any(self.snc_psd > 0.0):
+        if self.snc_psd.any():
             q = self.snc_psd[:, None, None]
             P[:, 0:3, 0:3] += (q * dt**3 / 3.0) * _EYE3
             P[:, 0:3, 3:6] += (q * dt**2 / 2.0) * _EYE3
@@ -381,10 +389,12 @@ class EKFStack:
         Mt = kalman.augmented_joint(self.x, self.P, H, R, residual)
         PX, res, S, chi2, processed = kalman.update(Mt, n, does, gate)
         processed = does if processed is None else processed
+        # P⁺ carries only the rounding asymmetry of one update: the next propagation step
+        # symmetrises it, so it never accumulates
         if processed.all():
             self.x = -PX[:, :, n]
-            self.P = kalman.symmetrise(PX[:, :, :n])
+            self.P = PX[:, :, :n]
         elif processed.any():
-            self.x = np.where(processed[:, None], -PX[:, :, n], self.x)
-            self.P = np.where(processed[:, None, None], kalman.symmetrise(PX[:, :, :n]), self.P)
+            self.x[processed] = -PX[processed, :, n]
+            self.P[processed] = PX[processed, :, :n]
         return res.copy(), S.copy(), chi2, processed

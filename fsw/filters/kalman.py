@@ -63,6 +63,42 @@ def chi_square(residual: np.ndarray, S_inv: np.ndarray) -> np.ndarray:
     return np.vecdot(residual, np.matvec(S_inv, residual))
 
 
+def _gain_rows(Mt: np.ndarray, n: int) -> np.ndarray:
+    """G = S⁻¹ M̃_bottom (N, m, n+1+m); Cramer's rule for m ≤ 2 (a LAPACK call costs more
+    than the whole 2×2 inverse)."""
+    m = Mt.shape[1] - n
+    S = Mt[:, n:, n + 1 :]
+    if m == 2:
+        adj = S[:, ::-1, ::-1] * _COFACTOR_SIGNS
+        adj /= np.vecdot(S[:, 0, :], adj[:, :, 0])[:, None, None]  # det = first row · adj column
+        return adj @ Mt[:, n:, :]
+    if m == 1:
+        return Mt[:, n:, :] / S
+    return np.linalg.solve(S, Mt[:, n:, :])
+
+
+def _joseph(Mt: np.ndarray, G: np.ndarray, n: int, LM: np.ndarray | None = None,
+            PX: np.ndarray | None = None) -> np.ndarray:
+    """[P⁺ | −x⁺] (N, n, n+1) from the augmented joint prior and G (see :func:`update`);
+    ``LM`` (N, n+m, n+1+m) and ``PX`` (N, n+m, n+1) may be given as workspace."""
+    # Whole (n+m)-row blocks keep every elementwise operand contiguous (a row slice of a
+    # stack is not, and costs ~4x more per element); the m extra rows are dropped at the end.
+    LM = np.matmul(Mt[:, :, n + 1 :], G, out=LM)
+    np.subtract(Mt, LM, out=LM)
+    PX = np.matmul(LM[:, :, n + 1 :], G[:, :, : n + 1], out=PX)
+    np.subtract(LM[:, :, : n + 1], PX, out=PX)
+    return PX[:, :n, :]
+
+
+def update_all(Mt: np.ndarray, n: int, LM: np.ndarray | None = None,
+               PX: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`update` when every filter processes and none edits: (PX⁺, z̄, S, chi2).
+    ``LM`` and ``PX``: optional workspace (see :func:`_joseph`); PX⁺ is then a view of ``PX``."""
+    G = _gain_rows(Mt, n)
+    residual = Mt[:, n:, n]
+    return _joseph(Mt, G, n, LM, PX), residual, Mt[:, n:, n + 1 :], np.vecdot(residual, G[:, :, n])
+
+
 def update(
     Mt: np.ndarray, n: int, processes: np.ndarray | None = None, gate: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
@@ -84,17 +120,7 @@ def update(
     when every filter processed. Filters that do not process keep x̄ and P̄ (zero gain) but
     still get their z̄, S and chi-square, which the gating networks need.
     """
-    nm = Mt.shape[1]
-    S = Mt[:, n:, n + 1 :]
-    bottom = Mt[:, n:, :]
-    if nm - n == 2:  # Cramer's rule: a LAPACK call costs more than the whole 2×2 inverse
-        adj = S[:, ::-1, ::-1] * _COFACTOR_SIGNS
-        adj /= np.vecdot(S[:, 0, :], adj[:, :, 0])[:, None, None]  # det = first row · adj column
-        G = adj @ bottom
-    elif nm - n == 1:
-        G = bottom / S
-    else:
-        G = np.linalg.solve(S, bottom)
+    G = _gain_rows(Mt, n)
     residual = Mt[:, n:, n]
     chi2 = np.vecdot(residual, G[:, :, n])
     does = processes
@@ -102,13 +128,7 @@ def update(
         does = chi2 <= gate if processes is None else processes & (chi2 <= gate)
     if does is not None:
         G *= does[:, None, None]
-    # Whole (n+m)-row blocks keep every elementwise operand contiguous (a row slice of a
-    # stack is not, and costs ~4x more per element); the m extra rows are dropped at the end.
-    LM = Mt[:, :, n + 1 :] @ G
-    np.subtract(Mt, LM, out=LM)
-    PX = LM[:, :, n + 1 :] @ G[:, :, : n + 1]
-    np.subtract(LM[:, :, : n + 1], PX, out=PX)
-    return PX[:, :n, :], residual, S, chi2, does
+    return _joseph(Mt, G, n), residual, Mt[:, n:, n + 1 :], chi2, does
 
 
 def symmetrise(P: np.ndarray) -> np.ndarray:

@@ -97,6 +97,13 @@ class LinearFilterBank:
         self.rejected: Counter[str] = Counter()
         self.t = 0.0
         self._updates = 0
+        self._z_shape = (m,)
+        self._n = n
+        # workspace of the all-filters step: A[P | −x], the Joseph intermediate, and two
+        # alternating homes for [P | −x] (so ``P`` is a view valid until the next step but one)
+        self._work = (np.empty((N, n + m, n + 1)), np.empty((N, n + m, n + 1 + m)),
+                      np.empty((N, n + m, n + 1)), np.empty((N, n + m, n + 1)))
+        self._flip = 0
         self._rebuild()
 
     @property
@@ -106,7 +113,7 @@ class LinearFilterBank:
 
     @property
     def P(self) -> np.ndarray:
-        """Covariances, (N, n, n) (a view: copy before keeping it)."""
+        """Covariances, (N, n, n) (a view into the bank's workspace: copy before keeping it)."""
         return self._PX[:, :, :-1]
 
     # -- configuration at run time ---------------------------------------------------------
@@ -145,8 +152,8 @@ class LinearFilterBank:
         A P Aᵀ + [[Q, QHᵀ], [HQ, HQHᵀ + R]]. Taking [P | −x] as operand and
         Ã = [[Fᵀ, 0, (HF)ᵀ], [0, 1, 0]], A [P | −x] Ã + C gives the augmented joint prior
         [[P̄, −x̄, P̄Hᵀ], [HP̄, −ŷ, S]] of :func:`kalman.update` in two batched products (the
-        measurement is then added to the ŷ column). B = [I; H], B̃, D play the same roles for
-        an update without predict.
+        measurement is written into C's otherwise zero state column, so adding C also turns −ŷ
+        into z̄). B = [I; H], B̃, D play the same roles for an update without predict.
         """
         N, n, _ = self.F.shape
         m = self.H.shape[1]
@@ -186,11 +193,11 @@ class LinearFilterBank:
 
     def _check(self, z: Any) -> np.ndarray:
         z = np.asarray(z, dtype=float)
-        m = self.H.shape[1]
-        if z.shape != (m,):
+        if z.shape != self._z_shape:
+            m = self._z_shape[0]
             self.rejected["bad_dimension"] += 1
             raise MeasurementRejected("bad_dimension", f"expected {m} components, got shape {z.shape}")
-        if not math.isfinite(z.sum()):  # NaN and ±inf all propagate into the sum
+        if not all(map(math.isfinite, z.tolist())):
             self.rejected["non_finite"] += 1
             raise MeasurementRejected("non_finite", f"measurement {z.tolist()} is not finite")
         return z
@@ -201,32 +208,43 @@ class LinearFilterBank:
 
     def step(self, z: Any, *, t: float = 0.0, seq: int = 0, kind: str = "generic-linear") -> BankRecord:
         """One predict then one update (one measurement per transition step)."""
-        return self._advance(self._check(z), t, seq, kind, predict=True)
+        z = self._check(z)
+        if self._all_active and self._no_gate and kind in self._every_filter_processes:
+            return self._step_all(z, t, seq, kind, self._A, self._At, self._C)
+        return self._advance(z, t, seq, kind, predict=True)
+
+    def _step_all(self, z: np.ndarray, t: float, seq: int, kind: str, A: np.ndarray, At: np.ndarray,
+                  C: np.ndarray) -> BankRecord:
+        """The common case, kept free of bookkeeping: every filter active and updating."""
+        n = self._n
+        work = self._work
+        Mt = np.matmul(np.matmul(A, self._PX, out=work[0]), At)
+        C[:, n:, n] = z  # C's state column is otherwise zero: [−x̄; −ŷ] + [0; z] = [−x̄; z̄]
+        Mt += C
+        # the new [P | −x] goes to the buffer the current one does not occupy
+        self._flip ^= 1
+        PX_new, residual, S, chi2 = kalman.update_all(Mt, n, work[1], work[2 + self._flip])
+        self._updates += 1
+        if self._updates % self.SYMMETRISE_EVERY == 0:
+            PX_new[:, :, :n] = kalman.symmetrise(PX_new[:, :, :n])
+        self._PX = PX_new
+        self.t = t = float(t)
+        return BankRecord(t, int(seq), kind, self.names, residual, S, chi2, self._all_true, self._all_true)
 
     def _advance(self, z: np.ndarray, t: float, seq: int, kind: str, predict: bool) -> BankRecord:
-        n = self.F.shape[-1]
+        n = self._n
         if self._all_active and self._no_gate and kind in self._every_filter_processes:
-            # the common case, kept free of bookkeeping: every filter active and updating
             A, At, C = (self._A, self._At, self._C) if predict else (self._B, self._Bt, self._D)
-            Mt = A @ self._PX @ At
-            Mt += C
-            Mt[:, n:, n] += z  # [−x̄; −ŷ] + [0; z] = [−x̄; z̄]
-            PX_new, residual, S, chi2, _ = kalman.update(Mt, n)
-            self._updates += 1
-            if self._updates % self.SYMMETRISE_EVERY == 0:
-                PX_new[:, :, :n] = kalman.symmetrise(PX_new[:, :, :n])
-            self._PX = PX_new
-            self.t = t = float(t)
-            return BankRecord(t, int(seq), kind, self.names, residual, S, chi2, self._all_true, self._all_true)
+            return self._step_all(z, t, seq, kind, A, At, C)
         a = self.active
         every = self._all_active
         A, At, C = (self._A, self._At, self._C) if predict else (self._B, self._Bt, self._D)
+        C[:, n:, n] = z  # C's state column is otherwise zero: [−x̄; −ŷ] + [0; z] = [−x̄; z̄]
         PX = self._PX
         if not every:
             A, At, C, PX = A[a], At[a], C[a], PX[a]
         Mt = A @ PX @ At
         Mt += C
-        Mt[:, n:, n] += z  # [−x̄; −ŷ] + [0; z] = [−x̄; z̄]
         does = self._processes_mask(kind)
         gate = None if self._no_gate else self._gate
         if not every:

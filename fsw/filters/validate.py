@@ -17,12 +17,12 @@ from fsw.filters.errors import MeasurementRejected
 
 def _finite_vector(values: Any, name: str) -> np.ndarray:
     try:
-        arr = np.asarray(values, dtype=float)
+        arr = np.array(values, dtype=float)
     except (TypeError, ValueError):
         raise MeasurementRejected("non_finite", f"{name} is not numeric: {values!r}") from None
     if arr.ndim != 1 or arr.size == 0:
         raise MeasurementRejected("bad_dimension", f"{name} must be a non-empty vector, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not math.isfinite(float(arr.sum())):  # NaN and ±inf all propagate into the sum
         raise MeasurementRejected("non_finite", f"{name} has non-finite entries: {arr.tolist()}")
     return arr
 
@@ -46,6 +46,6 @@ def screen(meas: Any, kinds: Iterable[str], dimensions: dict[str, int | None]) -
         raise MeasurementRejected("bad_dimension", f"{kind} has {want} component(s), got {value.size}")
     if sigma.size != value.size:
         raise MeasurementRejected("bad_dimension", f"sigma has {sigma.size} components, value {value.size}")
-    if np.any(sigma <= 0.0):
+    if float(sigma.min()) <= 0.0:
         raise MeasurementRejected("bad_sigma", f"sigma must be > 0, got {sigma.tolist()}")
     return value, sigma

@@ -6,16 +6,18 @@ are solved in the barycentric frame (as the measurements are made); the dynamics
 Mars-centred differences of the same table. Phobos and Deimos are the Keplerian orbits of
 :mod:`fsw.astro.moons`.
 
-DSN stations: the Earth-rotation chain of :mod:`fsw.astro.stations` costs ~0.15 ms a call, so
-the geocentric station state is evaluated on a 300 s grid (cached) together with the celestial
+DSN stations: the Earth-rotation chain of :mod:`fsw.astro.stations` costs ~0.5 ms a node, so
+the geocentric station state is evaluated on a 600 s grid (cached) together with the celestial
 intermediate pole k (third column of the ITRS→GCRS matrix), and carried to the requested time
 by the rotation about k by ω⊕Δt (Rodrigues) — the motion of a point fixed on the rotating
-Earth. Over |Δt| ≤ 150 s the neglected precession–nutation motion of the pole moves a station
-by < 1e-7 km. The result is an explicit smooth function of t whose velocity is its exact
+Earth — plus the node's remaining velocity (the pole's precession–nutation rate, ~1e-8 km/s).
+What that leaves out grows as Δt²: < 3e-7 km at |Δt| ≤ 360 s (a range error 3000× below its
+noise; both ends of a Doppler count use one node, where it changes the count by < 2e-9 km/s,
+2 % of its noise). The result is an explicit smooth function of t whose velocity is its exact
 derivative, which the measurement partials rely on.
 
-Planet states at one time come from the table's position interpolant (5 µs) with the velocity
-as a ±0.5 s central difference of it (error < 1e-12 km/s), ~3× cheaper than its state call.
+Planet states come from the table's cubic Hermite interpolant and its exact derivative, evaluated
+for all epochs of a measurement in one batched product (:meth:`Environment.states_many`).
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ SUN, EMB, JUPITER, EARTH, MARS = range(5)
 #: Optical targets the onboard camera model knows.
 OPTICAL_TARGETS: tuple[str, ...] = ("mars", *MOONS)
 
-_STATION_GRID_S = 300.0
+_STATION_GRID_S = 600.0
 
 
 class Environment:

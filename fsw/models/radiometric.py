@@ -52,28 +52,25 @@ class UplinkGeometry:
     d_rho_d_delta: np.ndarray  # (K, N) km/s
 
 
-#: Stop iterating the light time when no filter's τ moves by more than this [s]: the station
-#: then moves by < 1e-9 km in the remaining correction (and τ ~ 1e3 s only resolves ~1e-13 s).
-_TAU_TOL_S = 1e-11
-
-
 def uplinks(env: Environment, station: str, t_tags, r: np.ndarray, v: np.ndarray, delta: np.ndarray,
-            iterations: int = 6) -> UplinkGeometry:
+            iterations: int = 2) -> UplinkGeometry:
     """Solve the uplink light time at K time tags ``t_tags`` for spacecraft states r, v
     (K, N, 3) and clock phases δ (N,), all epochs in one batched iteration.
 
     Each epoch's station and Earth are expanded to second order about a reference transmit
-    epoch t_g from the mean geometry (|t_tx − t_g| ~ 1e-3 s: error < 1e-9 km); the fixed-point
-    iteration contracts by |v_station|/c ~ 1e-4 and stops when converged.
+    epoch t_g from the first filter's geocentric distance (|t_tx − t_g| ≤ R⊕/c + spread/c ≲
+    0.05 s even for filters 1e4 km apart: expansion error < 1e-12 km). The fixed-point
+    iteration τ ← |D(τ)|/c contracts by |u·v_station|/c ≈ 1e-4 per pass: two passes leave
+    < 5e-10 s, i.e. the range good to < 2e-8 km (dρ/dτ ≈ 30 km/s; its noise is 1e-3 km, and the
+    Doppler's 1e-7 km/s over 60 s is 6e-6 km).
     """
     t_tags = [float(t) for t in t_tags]
     pos, vel = env.states_many(t_tags)
-    Rm = pos[:, MARS, None, :]
     Vm = vel[:, MARS, None, :]
-    r_sc = Rm + r - (v + Vm) * delta[:, None]
+    r_sc = pos[:, MARS, None, :] + r - (v + Vm) * delta[:, None]
     # t_g is rounded to the ~1e-7 s resolution of epochs near 6e8 s (Earth moves 3 mm in
     # that); offsets are taken from the stored t_g exactly so every filter uses one expansion
-    g = np.mean(r_sc, axis=1) - pos[:, EARTH]
+    g = r_sc[:, 0, :] - pos[:, EARTH]
     t_g = [t - math.sqrt(gg) / C_KM_S for t, gg in zip(t_tags, np.vecdot(g, g).tolist())]
     tau_g = np.array([t - tg for t, tg in zip(t_tags, t_g)])[:, None]
     pos_g, vel_g = env.states_many(t_g)
@@ -83,20 +80,16 @@ def uplinks(env: Environment, station: str, t_tags, r: np.ndarray, v: np.ndarray
     A0 = (-GM_SUN) * e_rel / (e2 * np.sqrt(e2))
     A0[:, 0] -= OMEGA_EARTH_RAD_S * s_vel[:, 1]  # + ω ẑ × v_station (rotation's centripetal term)
     A0[:, 1] += OMEGA_EARTH_RAD_S * s_vel[:, 0]
-    R0 = (pos_g[:, EARTH] + s_pos)[:, None, :]
+    rel = r_sc - (pos_g[:, EARTH] + s_pos)[:, None, :]  # spacecraft from the station at t_g
     V0 = (vel_g[:, EARTH] + s_vel)[:, None, :]
     A0 = 0.5 * A0[:, None, :]
-    base = tau_g - delta  # t_tx − t_g = (t_tag − δ − τ) − (t_tag − τ_g) = base − τ
-    tau = tau_g
+    base = (tau_g - delta)[:, :, None]  # t_tx − t_g = (t_tag − δ − τ) − (t_tag − τ_g) = base − τ
+    dt = base - tau_g[:, :, None]
     for _ in range(iterations):
-        dt = (base - tau)[:, :, None]
-        D = r_sc - (R0 + dt * (V0 + A0 * dt))
-        rho = np.sqrt(np.vecdot(D, D))
-        new = rho / C_KM_S
-        done = float(np.max(np.abs(new - tau))) <= _TAU_TOL_S
-        tau = new
-        if done:
-            break
+        D = rel - dt * (V0 + A0 * dt)
+        dt = base - np.sqrt(np.vecdot(D, D))[:, :, None] / C_KM_S
+    D = rel - dt * (V0 + A0 * dt)
+    rho = np.sqrt(np.vecdot(D, D))
     u = D / rho[:, :, None]
     v_st = V0 + (2.0 * A0) * dt
     k = 1.0 / (1.0 - np.vecdot(u, v_st) / C_KM_S)
@@ -110,7 +103,7 @@ def uplinks(env: Environment, station: str, t_tags, r: np.ndarray, v: np.ndarray
 
 
 def uplink(env: Environment, station: str, t_tag: float, r: np.ndarray, v: np.ndarray, delta: np.ndarray,
-           iterations: int = 6) -> UplinkGeometry:
+           iterations: int = 2) -> UplinkGeometry:
     """One reception epoch: r, v (N, 3); the result's arrays have the epoch axis dropped."""
     g = uplinks(env, station, (t_tag,), r[None], v[None], delta, iterations)
     return UplinkGeometry(g.rho[0], g.d_rho_d_r[0], g.d_rho_d_v[0], g.d_rho_d_delta[0])

@@ -8,6 +8,9 @@
   onboard models if the simulator is not installed), µs per measurement, against the same
   filters run as separate one-filter banks (what the stacking across filters saves).
 
+Filter consistency (NEES/NIS against the simulator's truth over Monte Carlo seeds) is measured
+by :mod:`tools.bench.consistency`.
+
 Timings interleave ours and the reference and keep the best of several repeats, so other
 load on the machine affects both alike. ``--json`` prints one JSON object per line with
 ``name``, ``ours``, ``reference``, ``unit``, ``ratio`` (reference ÷ ours) and details.

@@ -17,7 +17,7 @@ import copy
 import hashlib
 import json
 import re
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -213,15 +213,17 @@ def expand(loaded: LoadedCampaign, extract_weights: str | None = None) -> Campai
                         raise loaded.error("overrides", "dotted scenario keys", str(exc)) from None
                     _apply_variant(data, var, loaded, f"matrix[{bi}].networks[{vi}]")
                     data["sim"]["faults"] = [typed.encode(f) for f in _faults(case, cfg.onset_day)]
+                    det_data = data["fsw"]["detector"]
+                    cal_data = det_data.get("calibration")
+                    if isinstance(cal_data, dict) and cal_data.get("network") != det_data.get("network", "chi2"):
+                        # a calibration learned on another network's weights means nothing here
+                        det_data["calibration"] = None
                     try:
                         scen = typed.decode(ScenarioConfig, data)
                     except DecodeError as exc:
                         raise _cell_error(loaded, bi, fi, vi, cell, exc, data, var) from None
                     det = scen.fsw.detector
-                    calibrated = det.calibration is not None and det.calibration.network == det.network
-                    if det.calibration is not None and not calibrated:
-                        # a calibration learned on another network's weights means nothing here
-                        scen = replace(scen, fsw=replace(scen.fsw, detector=replace(det, calibration=None)))
+                    calibrated = det.calibration is not None
                     final = typed.encode(scen)
                     fault_class = scen.sim.faults[0].fault_class if scen.sim.faults else "none"
                     if cell in cells:

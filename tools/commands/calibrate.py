@@ -117,7 +117,7 @@ def calibrated_scenario(base: ScenarioConfig, network: str, detector) -> Scenari
     gating = base.fsw.gating
     if not any(g.network == network for g in gating):
         gating = (*gating, GatingEntry.of(network))
-    section = DetectorSection(network=network, calibration=detector, high_q_filters=base.fsw.detector.high_q_filters)
+    section = DetectorSection(network=network, calibration=detector)
     return dataclasses.replace(base, fsw=dataclasses.replace(base.fsw, gating=gating, detector=section))
 
 
