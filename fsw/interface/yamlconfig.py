@@ -101,16 +101,20 @@ def load_text(cls: type[T], text: str, file: str = "<string>") -> T:
     return load_data(cls, data, lines, file)
 
 
-def load_file(cls: type[T], path: str | Path) -> T:
-    """Load and validate a YAML file as ``cls``; every failure is a one-line ConfigError."""
+def read_config_text(path: str | Path) -> str:
+    """The text of a configuration file; a missing or unreadable file is a one-line ConfigError."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError(str(path), None, "", "an existing file", "no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(str(path), None, "", "a readable UTF-8 text file", exc.__class__.__name__) from None
-    return load_text(cls, text, str(path))
+
+
+def load_file(cls: type[T], path: str | Path) -> T:
+    """Load and validate a YAML file as ``cls``; every failure is a one-line ConfigError."""
+    return load_text(cls, read_config_text(path), str(path))
 
 
 def dump_yaml(obj: Any, drop_defaults: bool = True) -> str:

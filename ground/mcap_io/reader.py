@@ -139,27 +139,19 @@ def _topic_filter(topic_names: Iterable[str] | str | None) -> set[str] | None:
     return {icd_topics.mcap_topic(t) for t in topic_names}
 
 
-def read_messages(
-    path: str | os.PathLike, topics: Iterable[str] | str | None = None, *, strict: bool = True
-) -> Iterator[LoggedMessage]:
-    """Messages of ``path`` (optionally only ``topics``, with or without the leading '/').
-
-    Complete files are read in ``log_time`` order; cut-short files in file order (which is
-    receive order for files we wrote) up to the last complete chunk. With ``strict`` a message
-    that does not match its channel's schema raises :class:`McapReadError`; otherwise it is
-    yielded as raw bytes.
-    """
+def iter_channel_messages(
+    path: str | os.PathLike, wanted: set[str] | None = None, *, strict: bool = True
+) -> Iterator[tuple[Schema | None, Channel, Message]]:
+    """(schema, channel, message record) of every message of ``path`` on the ``wanted`` MCAP
+    topics (all if None): complete files through the seeking reader in ``log_time`` order,
+    cut-short files (no footer) streamed in file order up to the last complete chunk. With
+    ``strict`` a message on an unknown channel raises :class:`McapReadError`; otherwise it is
+    skipped."""
     path = os.fspath(path)
-    wanted = _topic_filter(topics)
-    decoders: dict[int, Any] = {}
     if is_complete(path):
         with open(path, "rb") as f:
             reader = SeekingReader(f, validate_crcs=True)
-            for schema, channel, msg in reader.iter_messages(topics=wanted, log_time_order=True):
-                dec = decoders.get(channel.id)
-                if dec is None:
-                    dec = decoders[channel.id] = _decoder(schema, channel, strict)
-                yield LoggedMessage(channel.topic, msg.log_time, msg.publish_time, dec(msg.data))
+            yield from reader.iter_messages(topics=wanted, log_time_order=True)
         return
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
@@ -176,10 +168,25 @@ def read_messages(
                 continue
             if wanted is not None and channel.topic not in wanted:
                 continue
-            dec = decoders.get(channel.id)
-            if dec is None:
-                dec = decoders[channel.id] = _decoder(schemas.get(channel.schema_id), channel, strict)
-            yield LoggedMessage(channel.topic, record.log_time, record.publish_time, dec(record.data))
+            yield schemas.get(channel.schema_id), channel, record
+
+
+def read_messages(
+    path: str | os.PathLike, topics: Iterable[str] | str | None = None, *, strict: bool = True
+) -> Iterator[LoggedMessage]:
+    """Messages of ``path`` (optionally only ``topics``, with or without the leading '/').
+
+    Complete files are read in ``log_time`` order; cut-short files in file order (which is
+    receive order for files we wrote) up to the last complete chunk. With ``strict`` a message
+    that does not match its channel's schema raises :class:`McapReadError`; otherwise it is
+    yielded as raw bytes.
+    """
+    decoders: dict[int, Any] = {}
+    for schema, channel, msg in iter_channel_messages(path, _topic_filter(topics), strict=strict):
+        dec = decoders.get(channel.id)
+        if dec is None:
+            dec = decoders[channel.id] = _decoder(schema, channel, strict)
+        yield LoggedMessage(channel.topic, msg.log_time, msg.publish_time, dec(msg.data))
 
 
 def summary(path: str | os.PathLike) -> dict[str, int]:

@@ -13,10 +13,8 @@ import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
-from mcap.reader import SeekingReader
-from mcap.records import Channel, Message, Schema
 
-from ground.mcap_io.reader import is_complete, iter_records, read_attachments, read_metadata, summary
+from ground.mcap_io.reader import is_complete, iter_channel_messages, read_attachments, read_metadata, summary
 from ground.mcap_io.recorder import INVALID_PREFIX
 
 #: Name of the attachment ``navbank run`` writes: the complete scenario YAML of the run.
@@ -49,29 +47,10 @@ class RawMessage:
 
 def iter_raw(path: str | os.PathLike, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
     """Every message of ``path`` (optionally only MCAP ``topics``) as :class:`RawMessage`."""
-    path = os.fspath(path)
     wanted = None if topics is None else {"/" + t.strip("/") for t in topics}
-    if is_complete(path):
-        with open(path, "rb") as f:
-            reader = SeekingReader(f, validate_crcs=True)
-            for schema, channel, msg in reader.iter_messages(topics=wanted, log_time_order=True):
-                yield RawMessage(channel.topic, msg.log_time, msg.publish_time, msg.sequence, bytes(msg.data),
-                                 schema.name if schema is not None else "")
-        return
-    schemas: dict[int, Schema] = {}
-    channels: dict[int, Channel] = {}
-    for record in iter_records(path):
-        if isinstance(record, Schema):
-            schemas[record.id] = record
-        elif isinstance(record, Channel):
-            channels[record.id] = record
-        elif isinstance(record, Message):
-            channel = channels.get(record.channel_id)
-            if channel is None or (wanted is not None and channel.topic not in wanted):
-                continue
-            schema = schemas.get(channel.schema_id)
-            yield RawMessage(channel.topic, record.log_time, record.publish_time, record.sequence, bytes(record.data),
-                             schema.name if schema is not None else "")
+    for schema, channel, msg in iter_channel_messages(path, wanted, strict=False):
+        yield RawMessage(channel.topic, msg.log_time, msg.publish_time, msg.sequence, bytes(msg.data),
+                         schema.name if schema is not None else "")
 
 
 @dataclass(frozen=True)

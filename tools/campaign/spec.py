@@ -40,7 +40,7 @@ from typing import Any
 from fsw.config import GatingEntry
 from fsw.interface import typed
 from fsw.interface.typed import spec
-from fsw.interface.yamlconfig import ConfigError, load_data, parse_yaml
+from fsw.interface.yamlconfig import ConfigError, load_data, parse_yaml, read_config_text
 from sim.faults.config import FaultConfig
 from sim.faults.presets import FAULT_PRESETS
 
@@ -209,12 +209,7 @@ def load_campaign(name_or_path: str) -> LoadedCampaign:
     """A built-in campaign by name, or a campaign YAML file by path."""
     path = Path(name_or_path)
     if name_or_path.endswith((".yaml", ".yml")) or path.is_file():
-        try:
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise ConfigError(str(path), None, "", "an existing file", "no such file") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ConfigError(str(path), None, "", "a readable UTF-8 text file", exc.__class__.__name__) from None
+        text = read_config_text(path)
         return load_campaign_text(text, str(path), path.resolve().parent)
     res = builtin_dir().joinpath(f"{name_or_path}.yaml")
     if not res.is_file():
