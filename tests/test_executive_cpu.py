@@ -53,7 +53,7 @@ def test_admission_learns_the_cost_and_stops_overrunning():
 def test_slow_stage_beyond_its_estimate_is_an_overrun():
     clock = FakeClock()
     unit = 2.0**-10  # binary fractions: the fake clock adds them without rounding
-    cfg = BudgetConfig(mode="cpu", cpu_budget_s=8 * unit)
+    cfg = BudgetConfig(mode="cpu", cpu_budget_s=8 * unit, cpu_scale=1.0)
     ex = FrameExecutive(cfg, clock=clock)
     costs = [unit] * 20 + [32 * unit] + [unit] * 5
     for k, c in enumerate(costs):
