@@ -21,8 +21,10 @@ skipped; a stage that raises is contained and counted by the executive.
 
 from __future__ import annotations
 
+import gc
 import time
 from collections import Counter
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Callable
@@ -45,6 +47,23 @@ Emit = Callable[[str, Any], None]
 
 class CommandRejected(ValueError):
     """A telecommand that is well-formed but cannot be carried out (unknown filter, bad value)."""
+
+
+@contextmanager
+def _no_gc_pauses():
+    """Keep Python's cyclic garbage collector out of the frames.
+
+    A full collection costs tens of ms — longer than any stage — and would land on whatever stage
+    happens to allocate at that moment, charging it a spurious overrun. Collection is deferred
+    to just after the frame, outside any stage's CPU accounting (a flight executive likewise
+    keeps memory management out of its time-critical frames)."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()
 
 
 @lru_cache(maxsize=4096)
@@ -152,7 +171,8 @@ class FswCore:
         at most once per ``telemetry.idle_budget_every_s`` (tracking gaps are days long; a report
         per idle frame would bury the interesting ones)."""
         while self.executive.t_frame_end + self.config.budget.frame_s <= t:
-            rep = self.executive.run_frame()
+            with _no_gc_pauses():
+                rep = self.executive.run_frame()
             busy = rep.processed or rep.deferred or rep.backlog or rep.overruns != self._last_overruns
             if busy or rep.t_s >= self._next_idle_report:
                 self._emit_budget(rep)
@@ -307,7 +327,8 @@ class FswCore:
             return
         for meas in self.guard.flush():
             self._queue(meas)
-        result = self.executive.drain()
+        with _no_gc_pauses():
+            result = self.executive.drain()
         for rep in result.reports:
             self._emit_budget(rep)
         t_end = max(self._last_t, self.bank.t)

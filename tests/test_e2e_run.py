@@ -152,3 +152,29 @@ def test_killed_fsw_is_reported_and_the_run_stops(tmp_path):
     from ground.mcap_io.reader import is_complete
 
     assert is_complete(tmp_path / "o" / "run.mcap")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fault", [None, "none"])
+def test_default_run_detects_the_optical_bias_and_a_nominal_run_raises_nothing(tmp_path, fault):
+    """The README's main job: the built-in scenario's medium optical bias from day 20 is declared
+    as an optical-measurement anomaly after its onset and nothing before; without a fault,
+    nothing is declared."""
+    args = ["run", "--out", str(tmp_path / "o"), "--quiet"] + ([] if fault is None else ["--fault", fault])
+    proc = _navbank(*args, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["scenario"] == "insight-approach"
+    assert s["anomaly"]["detector"]
+    assert s["measurements"]["lost"] == 0 and s["measurements"]["processed"] == s["measurements"]["published"]
+    assert s["budget"]["final_backlog"] == 0
+    if fault is None:
+        a = s["anomaly"]
+        assert a["declared"] and not a["false_alarm"], a
+        assert a["onset_true_day"] == pytest.approx(20.0, abs=1e-6)
+        assert a["time_day"] > 20.0
+        assert a["class"] == "optical-measurement"
+        assert "ANOMALY declared" in proc.stdout and "diagnosis correct" in proc.stdout
+    else:
+        assert not s["anomaly"]["declared"], s["anomaly"]
+        assert "no anomaly declared" in proc.stdout

@@ -108,3 +108,19 @@ def test_real_cpu_burn_on_a_slower_processor_overruns_every_frame():
     assert [r.overruns for r in reports] == list(range(1, 13))
     assert all(r.utilisation >= 2.0 for r in reports)
     assert len(order) == 12
+
+
+def test_a_cold_first_run_does_not_starve_the_stage_afterwards():
+    # The first run of a stage carries one-time costs (20x here); the stage must still be admitted
+    # beside others as soon as its typical cost fits, not be held to one per frame for hours.
+    clock = FakeClock()
+    unit = 2.0**-10
+    cfg = BudgetConfig(mode="cpu", cpu_budget_s=10 * unit, cpu_scale=1.0)
+    ex = FrameExecutive(cfg, clock=clock)
+    costs = [20 * unit] + [unit] * 39
+    for k, c in enumerate(costs):
+        ex.submit(Job(t=0.0 + k * 1e-3, stages=(Stage("primary", clock.burn(c), name="bank"),)))
+    first = ex.run_frame(60.0)
+    assert first.processed == 1 and first.overruns == 1  # the cold run overran its frame
+    second = ex.run_frame(120.0)
+    assert second.processed >= 5  # afterwards several typical runs share a frame again

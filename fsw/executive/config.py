@@ -21,10 +21,13 @@ class BudgetConfig:
 
     ``mode = "cpu"`` charges each stage its measured thread CPU time multiplied by ``cpu_scale``
     (a value > 1 emulates a flight processor slower than the host) against ``cpu_budget_s``.
-    The defaults — a flight processor 20× slower than the host and 0.1 s of it per 60-s frame
-    (a sixth of a percent of the processor) — leave the three-filter InSight bank about a third
-    of its budget in the busiest frames (two measurements, ≈ 0.8 ms of host CPU each); a quarter
-    of it no longer fits two measurements, so passes build a backlog that gaps catch up.
+    The defaults emulate a flight processor 10× slower than the host, of which the navigation
+    software may use 0.15 s per 60-s frame (a quarter of a percent). The three-filter InSight
+    bank needs ≈ 0.6 ms of host CPU per measurement (median; 1.6 ms at the 99th percentile, up
+    to 10 ms for the first measurement and the last hours before entry) and never more than two
+    measurements fall in one frame, so the busiest frames use well under the budget; at a
+    quarter of it the heavier measurements no longer fit two to a frame and tracking passes
+    build a backlog that the gaps between passes catch up.
     ``mode = "work-units"`` charges each stage its declared cost against ``work_unit_budget``;
     nothing depends on the host's speed, so runs are reproducible frame by frame.
 
@@ -41,10 +44,10 @@ class BudgetConfig:
     )
     frame_s: float = spec(60.0, doc="simulated length of one frame", unit="s", gt=0.0)
     cpu_budget_s: float = spec(
-        0.1, doc="CPU budget per frame on the emulated flight processor (mode cpu)", unit="s", gt=0.0
+        0.15, doc="CPU budget per frame on the emulated flight processor (mode cpu)", unit="s", gt=0.0
     )
     cpu_scale: float = spec(
-        20.0, doc="flight-processor slowdown: CPU charged = measured host thread CPU x cpu_scale", unit="1", gt=0.0
+        10.0, doc="flight-processor slowdown: CPU charged = measured host thread CPU x cpu_scale", unit="1", gt=0.0
     )
     work_unit_budget: float = spec(100.0, doc="budget per frame (mode work-units)", unit="work unit", gt=0.0)
     ingest_cost: float = spec(1.0, doc="default cost of an ingest stage", unit="work unit", ge=0.0)

@@ -36,7 +36,14 @@ class CpuMeter:
     The prediction for a stage is a running mean of its past charged costs plus ``cost_margin``
     running mean absolute deviations, per stage label (seen-before work is admitted only if it
     will very probably fit; never-seen work is admitted while any budget is left).
+
+    The first run of each stage label is charged but does not seed the estimate: a first call
+    carries one-time costs (caches filled, tables built — 10-20× a typical run for the filter
+    bank), and seeding the estimate with it kept the stage out of frames it fits in for hours of
+    simulated time while the estimate decayed.
     """
+
+    COLD_START_SAMPLES = 1
 
     def __init__(self, config: BudgetConfig):
         self._scale = config.cpu_scale
@@ -44,6 +51,7 @@ class CpuMeter:
         self._margin = config.cost_margin
         self._mean: dict[str, float] = {}
         self._dev: dict[str, float] = {}
+        self._seen: dict[str, int] = {}
 
     def predict(self, stage: Stage) -> float:
         key = stage.label
@@ -57,6 +65,10 @@ class CpuMeter:
     def charge(self, stage: Stage, measured_s: float) -> float:
         cost = measured_s * self._scale
         key = stage.label
+        seen = self._seen.get(key, 0)
+        self._seen[key] = seen + 1
+        if seen < self.COLD_START_SAMPLES:
+            return cost
         if key not in self._mean:
             # Half the first sample as initial deviation: cautious until the cost is known.
             self._mean[key] = cost

@@ -75,7 +75,12 @@ def run(args) -> int:
         print(f"navbank run: {exc}", file=sys.stderr)
         return 1
     wall = time.perf_counter() - t0
-    messages = [(rec.topic, rec.message) for rec in read_messages(out / "run.mcap") if rec.message is not None]
+    # every topic but the measurements themselves (the simulator's end-of-run status counts them)
+    from ground.mcap_io.reader import summary as mcap_counts
+
+    wanted = [t for t in mcap_counts(out / "run.mcap") if t != "/sim/measurements"]
+    messages = [(rec.topic, rec.message) for rec in read_messages(out / "run.mcap", topics=wanted)
+                if rec.message is not None]
     t_start = cfg.fsw.initial_state.t_s
     summary = summarize(messages, scenario=cfg.name, seed=seed, fault=args.fault, t0=t_start, wall_time_s=wall)
     summary["run_id"] = run_id
