@@ -126,6 +126,7 @@ class FswCore:
         self._next_anomaly = init.t_s
         self._next_status = init.t_s + config.telemetry.status_every_s
         self._last_anomaly: tuple | None = None
+        self._declared_at: float | None = None
         self._last_t = init.t_s
         self.finished = False
         #: counters of the process around the core (e.g. malformed telecommands), in status replies
@@ -206,7 +207,12 @@ class FswCore:
             self.latest[name] = upd
             self._emit_weights(upd)
             if self.detector is not None and name == self.config.detector.network:
+                was_flagged = self.detector.state.flag
                 state = self.detector.consume(upd, active=self.bank.active.copy())
+                if state.flag and not was_flagged:
+                    # declared when this stage ran: later than the data if the budget made
+                    # the gating lag behind the filters
+                    self._declared_at = max(float(state.declared_t or upd.t), self.executive.t_now)
                 self._maybe_emit_anomaly(state, force=False)
 
     def _run_telemetry(self, ctx: _JobContext) -> None:
@@ -239,7 +245,7 @@ class FswCore:
             t_s=t_s, timestamp=stamp(t_s), flag=bool(state.flag), anomaly_class=state.anomaly_class,
             confidence=float(min(max(state.confidence, 0.0), 1.0)),
             onset_s=None if state.onset_t is None else float(state.onset_t),
-            declared_s=None if state.declared_t is None else float(state.declared_t),
+            declared_s=None if state.declared_t is None else max(float(state.declared_t), self._declared_at or 0.0),
             network=state.network, statistic=float(state.statistic or 0.0), threshold=float(state.threshold),
             evidence={k: float(v) for k, v in state.evidence.items()},
         )

@@ -75,6 +75,7 @@ class FrameExecutive:
         self._lock = threading.Lock()
         self._running = False
         self._t_end = float(t0)
+        self._t_running = float(t0)
         self._last_t: float | None = None
         self._frame = 0
         self._errors: deque[StageError] = deque(maxlen=self.config.error_log)
@@ -126,6 +127,12 @@ class FrameExecutive:
         return self._t_end
 
     @property
+    def t_now(self) -> float:
+        """The executive's clock: inside a stage, the end epoch of the frame running it (work
+        done in a frame is known onboard by its end); outside, the end of the last frame."""
+        return self._t_running if self._running else self._t_end
+
+    @property
     def frame(self) -> int:
         """Index of the next frame to run (= number of frames run)."""
         return self._frame
@@ -141,6 +148,7 @@ class FrameExecutive:
         if t_end <= self._t_end:
             raise FrameTimeError(f"frame end {t_end!r} is not after the previous frame end {self._t_end!r}")
         self._running = True
+        self._t_running = t_end
         try:
             return self._run(t_end)
         finally:
