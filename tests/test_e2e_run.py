@@ -178,3 +178,28 @@ def test_default_run_detects_the_optical_bias_and_a_nominal_run_raises_nothing(t
     else:
         assert not s["anomaly"]["declared"], s["anomaly"]
         assert "no anomaly declared" in proc.stdout
+
+
+def test_in_process_run_equals_the_multi_process_run_in_work_unit_mode(tmp_path):
+    """Campaigns use the in-process runner; in deterministic budget mode it must give exactly the
+    FSW outputs of the three processes over Zenoh."""
+    import yaml
+
+    from fsw.interface import codec, typed
+    from tools.inprocess import run_in_process
+    from tools.scenario import load_scenario, load_text_scenario
+
+    # any calibration makes the detector run (this one is the built-in scenario's)
+    cal = load_scenario("insight-approach").fsw.detector.calibration
+    det = yaml.safe_dump({"detector": {"network": "chi2", "calibration": typed.encode(cal)}}, default_flow_style=True)
+    text = SHORT + "  budget: {mode: work-units}\n" + "  " + det.strip()[1:-1] + "\n"
+    scen = tmp_path / "wu.yaml"
+    scen.write_text(text)
+    proc = _navbank("run", "--scenario", str(scen), "--out", str(tmp_path / "o"), "--quiet", timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    local = run_in_process(load_text_scenario(text))
+    for topic in ("fsw/weights/chi2", "fsw/weights/magill", "fsw/anomaly", "fsw/estimate/fused", "fsw/budget"):
+        recorded = [codec.to_json(r.message) for r in read_messages(tmp_path / "o" / "run.mcap", topics=["/" + topic])]
+        mine = [codec.to_json(m) for m in local.topic(topic)]
+        assert recorded and recorded == mine, topic
+    assert local.summary["anomaly"]["declared"]
