@@ -272,8 +272,23 @@ class FswCore:
         upd = self.latest.get(net) or next(iter(self.latest.values()), None)
         return None if upd is None else np.asarray(upd.weights, dtype=float)
 
+    def _best_filter(self, ests: dict[str, FilterEstimate], weights: np.ndarray | None) -> str:
+        """The filter to navigate on. While no anomaly is declared the gating weights of a
+        healthy bank are all ≈ 1/N (seed 001 §4.2: "we would usually select the default filter")
+        and say nothing about accuracy, so the best-informed enabled filter (smallest RTPC) is
+        used; once an anomaly is declared, the filter the gating network prefers."""
+        enabled = [n for n, a in zip(self.filters, self.bank.active) if a]
+        flagged = self.detector is not None and self.detector.state.flag
+        if flagged and weights is not None:
+            w = dict(zip(self.filters, weights))
+            return max(enabled, key=lambda n: w.get(n, 0.0))
+        return min(enabled, key=lambda n: ests[n].position_sigma_km)
+
     def _emit_estimates(self, t: float) -> None:
-        ests = self.bank.estimates(self.weights_for_combination())
+        weights = self.weights_for_combination()
+        ests = self.bank.estimates(weights)
+        if "best" in ests:
+            ests["best"] = ests[self._best_filter(ests, weights)]
         for label, est in ests.items():
             if label in self.filters and not self.config.telemetry.per_filter_estimates:
                 continue
