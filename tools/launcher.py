@@ -65,7 +65,9 @@ def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[st
     connect = [a for ep in before for a in ("--connect", ep)]
     net = ["--listen", eps[role], *connect]
     if role == "ground":
-        return [*base, "ground", "log", "--run-id", run_id, "--out", str(out_dir / "run.mcap"),
+        # The producers are our own processes, which encode from the ICD types: strict re-validation
+        # of every message in the logger (~90 µs each) only slowed the whole run down.
+        return [*base, "ground", "log", "--run-id", run_id, "--out", str(out_dir / "run.mcap"), "--no-validate",
                 "--attach", str(cfg_path), *net]
     if role == "fsw":
         return [*base, "fsw", "--scenario", str(cfg_path), "--run-id", run_id, *net]

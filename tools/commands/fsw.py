@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import time
 
 from fsw.app import run_fsw, stderr_progress
 from fsw.interface import transport as tp
@@ -37,5 +38,5 @@ def run(args) -> int:
         print(f"navbank fsw: {exc}", file=sys.stderr)
         return 1
     print(f"fsw: processed {counts.get('processed', 0)}, rejected {counts.get('rejected', 0)}, "
-          f"lost {counts.get('lost', 0)}", file=sys.stderr)
+          f"lost {counts.get('lost', 0)}; process CPU {time.process_time():.1f} s", file=sys.stderr)
     return 0

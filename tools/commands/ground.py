@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import sys
+import time
+
 from ground import logger
 
 NAME = "ground"
@@ -19,5 +22,7 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     if args.ground_command == "log":
-        return logger.main(args)
+        rc = logger.main(args)
+        print(f"ground log: process CPU {time.process_time():.1f} s", file=sys.stderr)
+        return rc
     return 2

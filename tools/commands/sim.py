@@ -77,5 +77,6 @@ def run(args) -> int:
         except tp.TransportError as exc:
             print(f"navbank sim: {exc}", file=sys.stderr)
             return 1
-        print(f"sim: published {counts.get('measurements', 0)} measurements as run {args.run_id}", file=sys.stderr)
+        print(f"sim: published {counts.get('measurements', 0)} measurements as run {args.run_id}; "
+              f"process CPU {time.process_time():.1f} s", file=sys.stderr)
     return 0
