@@ -1,7 +1,7 @@
 """Zenoh transport of the ICD: sessions, typed publishers/subscribers, flow control, telecommands.
 
 Every navbank process talks through this module, so the measured Zenoh pitfalls
-(/work/shared/NOTES-zenoh-mcap.md) are handled once, here:
+(the design notes NOTES-zenoh-mcap.md) are handled once, here:
 
 * **Loopback by default.** Sessions are peers, multicast scouting off, listening on
   ``tcp/127.0.0.1:0``; nothing binds to another interface unless asked (``--listen``).
