@@ -35,7 +35,7 @@ def test_nominal_plan_has_no_fault_no_detector_and_the_network(tmp_path, monkeyp
         assert t.scenario["fsw"]["detector"]["calibration"] is None
         assert t.scenario["fsw"]["detector"]["network"] == "chi2"
         assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["magill", "chi2"]
-        assert t.payload()["extract_weights"] == "chi2"
+        assert t.payload()["extract_weights"] == ["chi2"]
 
 
 @pytest.mark.slow
@@ -61,7 +61,7 @@ def test_calibrate_writes_detector_and_scenario(tmp_path, monkeypatch, capsys):
     rows = read_rows(tmp_path / "runs" / "runs.jsonl").rows
     assert len(rows) == 10 and all(r["status"] == "ok" for r in rows)
     for r in rows:
-        stored = load_weights(tmp_path / "runs", r["id"])
+        stored = load_weights(tmp_path / "runs", r["id"], "chi2")
         chi2 = r["summary"]["gating"]["chi2"]
         assert stored["weights"].shape == (chi2["updates"], 3) and chi2["updates"] >= 5
         np.testing.assert_allclose(stored["weights"].mean(axis=0), list(chi2["mean_weights"].values()), rtol=1e-12)
@@ -69,7 +69,7 @@ def test_calibrate_writes_detector_and_scenario(tmp_path, monkeypatch, capsys):
         assert np.all(np.diff(stored["t_s"]) > 0) and list(stored["batch"]) == list(range(chi2["updates"]))
 
     # nominal weights sit near 1/N and the nominal band was learned from them
-    pooled = np.concatenate([load_weights(tmp_path / "runs", r["id"])["weights"] for r in rows])
+    pooled = np.concatenate([load_weights(tmp_path / "runs", r["id"], "chi2")["weights"] for r in rows])
     np.testing.assert_allclose(det.nominal_mean, pooled.mean(axis=0), rtol=1e-12)
 
     # again: the runs are reused, nothing is flown, the same calibration comes out
@@ -83,3 +83,35 @@ def test_calibrate_rejects_bad_arguments(capsys):
     assert main(["calibrate", "--target-fa", "1.5"]) == 2
     assert main(["calibrate", "--scenario", "no-such-scenario", "--seeds", "2"]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 3
+
+
+def test_several_networks_share_one_set_of_nominal_runs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "short.yaml").write_text(SCENARIO)
+    plan = expand(nominal_campaign("short.yaml", ["chi2", "chi2-two-sided", "magill"], 2, 1001))
+    for t in plan.tasks:
+        assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["magill", "chi2", "chi2-two-sided"]
+        assert t.payload()["extract_weights"] == ["chi2", "chi2-two-sided", "magill"]
+        assert t.scenario["fsw"]["detector"]["calibration"] is None
+
+
+@pytest.mark.slow
+def test_calibrate_several_networks_to_a_directory(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "short.yaml").write_text(SCENARIO.replace("    - {network: magill}", "    - {network: magill}\n"
+                                                          "    - {network: chi2, batch_size: 200}"))
+    args = ["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--network", "magill", "--seeds", "4",
+            "--target-fa", "0.2", "--workers", "2", "--out-dir", "dets", "--runs-dir", "runs", "--quiet"]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert "network chi2" in printed and "network magill" in printed
+    rows = read_rows(tmp_path / "runs" / "runs.jsonl").rows
+    assert len(rows) == 4  # one set of runs for both networks
+    for net in ("chi2", "magill"):
+        det = load_file(DetectorConfig, tmp_path / "dets" / f"detector-{net}.yaml")
+        assert det.network == net
+        pooled = np.concatenate([load_weights(tmp_path / "runs", r["id"], net)["weights"] for r in rows])
+        np.testing.assert_allclose(det.nominal_mean, pooled.mean(axis=0), rtol=1e-12)
+        assert f"--network {net}" in (tmp_path / "dets" / f"detector-{net}.yaml").read_text()
+    assert main(["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--network", "magill",
+                 "--out", "x.yaml"]) == 2

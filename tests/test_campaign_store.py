@@ -59,9 +59,9 @@ def test_unreadable_middle_line_is_counted_and_latest_row_wins(tmp_path):
 def test_weights_round_trip(tmp_path):
     with RunStore(tmp_path) as store:
         w = np.random.default_rng(1).random((7, 3))
-        store.save_weights("abc", {"filters": ["radio", "optical", "fused"], "t_s": np.arange(7.0),
-                                   "batch": np.arange(7), "weights": w})
-    got = load_weights(tmp_path, "abc")
+        store.save_weights("abc", {"chi2": {"filters": ["radio", "optical", "fused"], "t_s": np.arange(7.0),
+                                            "batch": np.arange(7), "weights": w}})
+    got = load_weights(tmp_path, "abc", "chi2")
     assert list(got["filters"]) == ["radio", "optical", "fused"]
     np.testing.assert_array_equal(got["weights"], w)
-    assert not list((tmp_path / "weights").glob(".*tmp*"))
+    assert not list((tmp_path / "weights").rglob(".*tmp*"))

@@ -59,7 +59,7 @@ class RunTask:
     detector_network: str
     detector_calibrated: bool
     span_days: float
-    extract_weights: str | None = None
+    extract_weights: tuple[str, ...] = ()
 
     def payload(self) -> dict:
         """What the worker needs (plain data: pickles the same for a process pool and for dask)."""
@@ -67,7 +67,7 @@ class RunTask:
             "id": self.id, "cell": self.cell.as_dict(), "seed": self.seed, "scenario": self.scenario,
             "fault_label": self.fault_label, "fault_class": self.fault_class,
             "detector": {"network": self.detector_network, "calibrated": self.detector_calibrated},
-            "span_days": self.span_days, "extract_weights": self.extract_weights,
+            "span_days": self.span_days, "extract_weights": list(self.extract_weights),
         }
 
 
@@ -192,10 +192,14 @@ def _cell_error(loaded: LoadedCampaign, bi: int, fi: int, vi: int, cell: Cell, e
                         exc.got)
 
 
-def expand(loaded: LoadedCampaign, extract_weights: str | None = None) -> CampaignPlan:
+def expand(loaded: LoadedCampaign, extract_weights: tuple[str, ...] | str = ()) -> CampaignPlan:
     """Every run of the campaign, cell by cell (block order, then scenario, fault, variant) and
-    seed by seed."""
+    seed by seed. ``extract_weights`` (with the campaign's ``keep_weights``): networks whose weight
+    histories every run stores."""
     cfg = loaded.config
+    if isinstance(extract_weights, str):
+        extract_weights = (extract_weights,)
+    keep = tuple(dict.fromkeys((*cfg.keep_weights, *extract_weights)))
     tasks: list[RunTask] = []
     cells: list[Cell] = []
     seen: dict[str, Cell] = {}
@@ -212,6 +216,9 @@ def expand(loaded: LoadedCampaign, extract_weights: str | None = None) -> Campai
                     except ValueError as exc:
                         raise loaded.error("overrides", "dotted scenario keys", str(exc)) from None
                     _apply_variant(data, var, loaded, f"matrix[{bi}].networks[{vi}]")
+                    for net in keep:  # a kept history needs its network to run
+                        if not any(g.get("network") == net for g in data["fsw"]["gating"]):
+                            data["fsw"]["gating"].append({"network": net})
                     data["sim"]["faults"] = [typed.encode(f) for f in _faults(case, cfg.onset_day)]
                     det_data = data["fsw"]["detector"]
                     cal_data = det_data.get("calibration")
@@ -241,6 +248,6 @@ def expand(loaded: LoadedCampaign, extract_weights: str | None = None) -> Campai
                             fault_label=case.preset if case.preset is not None else case.label,
                             fault_class=fault_class, detector_network=det.network,
                             detector_calibrated=calibrated, span_days=scen.sim.trajectory.span_days,
-                            extract_weights=extract_weights,
+                            extract_weights=keep,
                         ))
     return CampaignPlan(cfg.name, cfg.description, tasks, cells)

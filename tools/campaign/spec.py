@@ -165,6 +165,10 @@ class CampaignConfig:
     seeds: SeedPlan = spec(default_factory=SeedPlan, doc="seeds per cell")
     onset_day: float | None = spec(None, doc="default onset of preset faults", unit="day", ge=0.0)
     overrides: dict[str, Any] = spec(default_factory=dict, doc="scenario keys changed in every run (dotted or nested)")
+    keep_weights: tuple[str, ...] = spec(
+        (), doc="gating networks whose weight histories every run stores (weights/<network>/<id>.npz); "
+        "each is added to the gating list with defaults if absent"
+    )
 
     def __post_init__(self) -> None:
         if not self.matrix:

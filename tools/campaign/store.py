@@ -6,7 +6,7 @@ followed by ``fsync``, so after a crash the file holds whole rows plus at most o
 appending, so a resumed campaign never glues a new row onto half an old one. A later row for the
 same id (``--rerun-failed``) supersedes the earlier one.
 
-Weight histories (``navbank calibrate``) go to ``weights/<id>.npz``, written to a temporary name
+Weight histories (``navbank calibrate``, campaigns' ``keep_weights``) go to ``weights/<network>/<id>.npz``, written to a temporary name
 and renamed *before* the row is appended: a row never points at a missing or partial file.
 """
 
@@ -141,17 +141,23 @@ class RunStore:
             view = view[n:]
         os.fsync(self._fd)
 
-    def save_weights(self, run_id: str, arrays: dict[str, Any]) -> Path:
-        wdir = self.dir / WEIGHTS
-        wdir.mkdir(parents=True, exist_ok=True)
-        final = wdir / f"{run_id}.npz"
-        tmp = wdir / f".{run_id}.tmp.npz"
-        np.savez(tmp, filters=np.array(arrays["filters"], dtype=str), t_s=arrays["t_s"],
-                 batch=arrays["batch"], weights=arrays["weights"])
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, final)
-        return final
+    def save_weights(self, run_id: str, histories: dict[str, dict[str, Any]]) -> list[Path]:
+        """Store each network's weight history as ``weights/<network>/<run_id>.npz`` (atomic)."""
+        paths = []
+        for network, arrays in histories.items():
+            wdir = self.dir / WEIGHTS / network
+            wdir.mkdir(parents=True, exist_ok=True)
+            final = wdir / f"{run_id}.npz"
+            tmp = wdir / f".{run_id}.tmp.npz"
+            np.savez(tmp, filters=np.array(arrays["filters"], dtype=str), t_s=arrays["t_s"],
+                     batch=arrays["batch"], weights=arrays["weights"], groups=arrays.get("groups", np.zeros((0, 0))),
+                     group_names=np.array(arrays.get("group_names", []), dtype=str),
+                     statistic=arrays.get("statistic", np.zeros((0, 0))))
+            with open(tmp, "rb") as fh:
+                os.fsync(fh.fileno())
+            os.replace(tmp, final)
+            paths.append(final)
+        return paths
 
     def read(self) -> ReadResult:
         return read_rows(self.path)
@@ -169,9 +175,14 @@ class RunStore:
         self.close()
 
 
-def load_weights(directory: str | Path, run_id: str) -> dict[str, np.ndarray]:
-    with np.load(Path(directory) / WEIGHTS / f"{run_id}.npz", allow_pickle=False) as data:
+def load_weights(directory: str | Path, run_id: str, network: str) -> dict[str, np.ndarray]:
+    """One network's stored weight history of one run (see :meth:`RunStore.save_weights`)."""
+    with np.load(Path(directory) / WEIGHTS / network / f"{run_id}.npz", allow_pickle=False) as data:
         return {k: data[k] for k in data.files}
+
+
+def has_weights(directory: str | Path, run_id: str, network: str) -> bool:
+    return (Path(directory) / WEIGHTS / network / f"{run_id}.npz").is_file()
 
 
 def write_json_atomic(path: str | Path, obj: Any) -> None:

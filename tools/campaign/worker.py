@@ -2,8 +2,8 @@
 
 The function is importable by name (``tools.campaign.worker.execute``) so a spawned process pool
 and a dask worker run the same code. Its input and output are plain data: the row (the run's
-summary, id, cell, seed, status, error, wall time) and, on request, one gating network's weight
-history as compact arrays — never the run's messages, which are ~10^5 objects for a 45-day run.
+summary, id, cell, seed, status, error, wall time) and, on request, gating networks' weight
+histories as compact arrays — never the run's messages, which are ~10^5 objects for a 45-day run.
 
 Any exception raised by the run itself is caught here and becomes a ``failed`` row with the error
 type, message and the tail of the traceback: one bad run never stops a campaign.
@@ -27,16 +27,24 @@ TRACEBACK_LINES = 12
 
 
 def weight_history(result: RunResult, network: str) -> dict[str, Any]:
-    """The FilterWeights history of ``network``: filter names, epochs, batch indices, weights."""
+    """The FilterWeights history of ``network``: filter names, epochs, batch indices, weights,
+    per-filter statistics and (hierarchical networks) the top-level weight of each bank."""
     msgs = result.topic(f"{topics.FSW_WEIGHTS}/{network}")
     if not msgs:
         return {"filters": [], "t_s": np.zeros(0), "batch": np.zeros(0, dtype=np.int64),
-                "weights": np.zeros((0, 0))}
+                "weights": np.zeros((0, 0)), "statistic": np.zeros((0, 0)), "group_names": [],
+                "groups": np.zeros((0, 0))}
+    group_names = list(msgs[-1].groups)
+    stat_len = len(msgs[-1].statistic)
     return {
         "filters": list(msgs[-1].filters),
         "t_s": np.array([m.t_s for m in msgs], dtype=float),
         "batch": np.array([m.batch for m in msgs], dtype=np.int64),
         "weights": np.array([m.weights for m in msgs], dtype=float),
+        "statistic": np.array([m.statistic if len(m.statistic) == stat_len else (np.nan,) * stat_len
+                               for m in msgs], dtype=float),
+        "group_names": group_names,
+        "groups": np.array([[m.groups.get(g, np.nan) for g in group_names] for m in msgs], dtype=float),
     }
 
 
@@ -55,7 +63,7 @@ def base_row(payload: dict) -> dict[str, Any]:
 
 
 def execute(payload: dict) -> dict[str, Any]:
-    """Run one campaign run; returns ``{"row": row, "weights": None | arrays}``."""
+    """Run one campaign run; returns ``{"row": row, "weights": None | {network: arrays}}``."""
     t0 = time.perf_counter()
     row = base_row(payload)
     row.update({"host": socket.gethostname(), "pid": os.getpid()})
@@ -63,9 +71,9 @@ def execute(payload: dict) -> dict[str, Any]:
     try:
         cfg = typed.decode(ScenarioConfig, payload["scenario"])
         result = run_in_process(cfg, payload["seed"], fault_label=payload["fault_label"], run_id=payload["id"])
-        net = payload.get("extract_weights")
-        if net:
-            weights = weight_history(result, net)
+        nets = payload.get("extract_weights") or ()
+        if nets:
+            weights = {net: weight_history(result, net) for net in nets}
         row.update({"status": "ok", "error": None, "summary": result.summary})
         del result
     except Exception as exc:  # a failed run is data for the campaign, not the end of it

@@ -46,7 +46,7 @@ from fsw.interface.yamlconfig import dump_yaml, load_text
 from tools.campaign.plan import expand
 from tools.campaign.runner import run_campaign
 from tools.campaign.spec import CampaignConfig, FaultCase, LoadedCampaign, MatrixBlock, NetworkVariant, SeedPlan
-from tools.campaign.store import load_weights, read_rows
+from tools.campaign.store import has_weights, load_weights, read_rows
 from tools.cli import UsageError
 from tools.commands.campaign import executor_factory
 from tools.scenario import ScenarioConfig, load_scenario
@@ -58,7 +58,9 @@ DESCRIPTION = __doc__.split("\n", 2)[2] if __doc__ else HELP
 
 def add_arguments(p) -> None:
     p.add_argument("--scenario", default="insight-approach", metavar="S", help="built-in scenario or YAML file")
-    p.add_argument("--network", default="chi2", help="gating network the detector watches (default chi2)")
+    p.add_argument("--network", action="append", default=None, metavar="NET",
+                   help="gating network the detector watches (default chi2); repeat to calibrate several "
+                        "networks on the same nominal runs (then --out-dir)")
     p.add_argument("--seeds", type=int, default=40, metavar="N", help="number of nominal runs (default 40)")
     p.add_argument("--base-seed", type=int, default=1001, metavar="B", help="first seed (default 1001)")
     p.add_argument("--target-fa", type=float, default=0.01, help="false-alarm probability per run or segment")
@@ -75,32 +77,41 @@ def add_arguments(p) -> None:
     p.add_argument("--runs-dir", metavar="DIR", default=None,
                    help="where the nominal runs go (default ./calibrate-SCENARIO-NETWORK); reused on re-runs")
     p.add_argument("--out", metavar="FILE.yaml", default=None, help="detector configuration (default: stdout)")
+    p.add_argument("--out-dir", metavar="DIR", default=None,
+                   help="write DIR/detector-NETWORK.yaml for every --network (needed with several networks)")
     p.add_argument("--write-scenario", metavar="FILE", default=None,
                    help="also write the scenario with fsw.detector set to this calibration")
     p.add_argument("--quiet", action="store_true", help="no progress line")
 
 
-def nominal_campaign(scenario_ref: str, network: str, seeds: int, base_seed: int) -> LoadedCampaign:
-    """The campaign of step 1: ``none`` x the scenario, detector off, ``network`` in the gating list."""
-    variant = NetworkVariant(name=network, detector=network, overrides={"fsw.detector.calibration": None})
+def nominal_campaign(scenario_ref: str, network: str | list[str] | tuple[str, ...], seeds: int,
+                     base_seed: int) -> LoadedCampaign:
+    """The campaign of step 1: ``none`` x the scenario, detector off, every network in the gating
+    list and its weight history kept."""
+    networks = (network,) if isinstance(network, str) else tuple(network)
+    label = "+".join(networks)
+    variant = NetworkVariant(name=label, detector=networks[0], overrides={"fsw.detector.calibration": None})
     cfg = CampaignConfig(
-        name=f"calibrate-{network}",
-        description=f"nominal runs for the {network} detector calibration",
+        name=f"calibrate-{label}",
+        description=f"nominal runs for the {', '.join(networks)} detector calibration",
         matrix=(MatrixBlock(scenarios=(scenario_ref,), faults=(FaultCase(preset="none"),), networks=(variant,)),),
         seeds=SeedPlan(count=seeds, base=base_seed),
+        keep_weights=networks,
     )
     return LoadedCampaign(cfg, f"<calibrate {scenario_ref}>", Path.cwd())
 
 
-def collect_histories(runs_dir: Path, ids: list[str]) -> tuple[list[np.ndarray], tuple[str, ...], list[str]]:
-    """The weight arrays of the successful runs among ``ids`` (their filter order must agree)."""
+def collect_histories(runs_dir: Path, ids: list[str], network: str) -> tuple[list[np.ndarray], tuple[str, ...], list[str]]:
+    """``network``'s weight arrays of the successful runs among ``ids`` (their filter order must agree)."""
     latest = read_rows(runs_dir / "runs.jsonl").latest()
     histories, names, used = [], None, []
     for rid in ids:
         row = latest.get(rid)
         if not row or row.get("status") != "ok":
             continue
-        data = load_weights(runs_dir, rid)
+        if not has_weights(runs_dir, rid, network):
+            continue
+        data = load_weights(runs_dir, rid, network)
         filters = tuple(str(s) for s in data["filters"])
         if data["weights"].size == 0:
             continue  # the network published nothing (a run shorter than one batch)
@@ -147,9 +158,9 @@ def format_report(r: CalibrationReport, runs: int, runs_planned: int) -> str:
     return "\n".join(lines)
 
 
-def reproduce_command(args) -> str:
+def reproduce_command(args, network: str) -> str:
     """The command line that recomputes this calibration (for the header of --write-scenario)."""
-    parts = ["navbank", "calibrate", "--scenario", args.scenario, "--network", args.network,
+    parts = ["navbank", "calibrate", "--scenario", args.scenario, "--network", network,
              "--seeds", str(args.seeds), "--base-seed", str(args.base_seed), "--target-fa", f"{args.target_fa:g}",
              "--warmup", str(args.warmup), "--persistence", *map(str, args.persistence), "--hold", str(args.hold),
              "--statistic", args.statistic]
@@ -159,55 +170,69 @@ def reproduce_command(args) -> str:
 
 
 def run(args) -> int:
+    networks = list(dict.fromkeys(args.network or ["chi2"]))
     if args.seeds < 1:
         raise UsageError("--seeds must be at least 1")
     if not 0.0 < args.target_fa < 1.0:
         raise UsageError("--target-fa must lie in (0, 1)")
     if args.workers is not None and args.workers < 1:
         raise UsageError("--workers must be at least 1")
+    if len(networks) > 1 and (args.out or args.write_scenario):
+        raise UsageError("with several --network use --out-dir (--out and --write-scenario take one network)")
     base = load_scenario(args.scenario)
-    loaded = nominal_campaign(args.scenario, args.network, args.seeds, args.base_seed)
-    plan = expand(loaded, extract_weights=args.network)
-    runs_dir = Path(args.runs_dir) if args.runs_dir else Path(f"calibrate-{base.name}-{args.network}")
+    loaded = nominal_campaign(args.scenario, networks, args.seeds, args.base_seed)
+    plan = expand(loaded)
+    label = "+".join(networks)
+    runs_dir = Path(args.runs_dir) if args.runs_dir else Path(f"calibrate-{base.name}-{label}")
     outcome = run_campaign(plan, runs_dir, executor_factory(args), quiet=args.quiet)
     if outcome.interrupted:
         print("navbank calibrate: interrupted; nothing written (run the same command again to resume)", file=sys.stderr)
         return 130
+    if args.out_dir:
+        Path(args.out_dir).mkdir(parents=True, exist_ok=True)
+    status = 0
+    for network in networks:
+        status = max(status, _calibrate_one(args, base, plan, runs_dir, network))
+    return status
+
+
+def _calibrate_one(args, base: ScenarioConfig, plan, runs_dir: Path, network: str) -> int:
     try:
-        histories, filters, used = collect_histories(runs_dir, [t.id for t in plan.tasks])
+        histories, filters, used = collect_histories(runs_dir, [t.id for t in plan.tasks], network)
     except CalibrationError as exc:
         print(f"navbank calibrate: {exc}", file=sys.stderr)
         return 1
     failed = len(plan.tasks) - len(used)
     if failed:
-        print(f"navbank calibrate: {failed} nominal run(s) failed, missing or without {args.network} weights "
+        print(f"navbank calibrate: {failed} nominal run(s) failed, missing or without {network} weights "
               f"(see {runs_dir}/runs.jsonl); "
               f"calibrating on {len(used)}", file=sys.stderr)
     if not histories:
-        print("navbank calibrate: no successful nominal run to calibrate on", file=sys.stderr)
+        print(f"navbank calibrate: no successful nominal run to calibrate {network} on", file=sys.stderr)
         return 1
     try:
         detector, report = calibrate(
-            histories, args.target_fa, network=args.network, filters=filters, statistic=args.statistic,
+            histories, args.target_fa, network=network, filters=filters, statistic=args.statistic,
             persistence=tuple(args.persistence), hold=args.hold, warmup=args.warmup,
             segment_batches=args.segment_batches,
         )
     except CalibrationError as exc:
-        print(f"navbank calibrate: calibration failed: {exc}", file=sys.stderr)
+        print(f"navbank calibrate: calibration of {network} failed: {exc}", file=sys.stderr)
         return 1
-    command = reproduce_command(args)
+    command = reproduce_command(args, network)
     text = config_to_yaml(detector)
-    if args.out:
-        Path(args.out).write_text(text, encoding="utf-8")
+    out = args.out or (str(Path(args.out_dir) / f"detector-{network}.yaml") if args.out_dir else None)
+    if out:
+        Path(out).write_text(f"# reproduce: {command}\n" + text, encoding="utf-8")
     else:
         print(text, end="")
     if args.write_scenario:
-        scen = calibrated_scenario(base, args.network, detector)
-        header = (f"# {scen.name} with the {args.network} detector calibrated on {len(used)} nominal runs "
+        scen = calibrated_scenario(base, network, detector)
+        header = (f"# {scen.name} with the {network} detector calibrated on {len(used)} nominal runs "
                   f"(seeds {args.base_seed}..{args.base_seed + args.seeds - 1}, target FA {args.target_fa:g})\n")
         header += f"# reproduce: {command}\n"
         body = dump_yaml(scen, drop_defaults=True)
         load_text(ScenarioConfig, body, args.write_scenario)  # what we write must load back
         Path(args.write_scenario).write_text(header + body, encoding="utf-8")
-    print(format_report(report, len(used), len(plan.tasks)), file=sys.stdout if args.out else sys.stderr)
+    print(format_report(report, len(used), len(plan.tasks)), file=sys.stdout if out else sys.stderr)
     return 0
