@@ -35,3 +35,6 @@ class SimConfig:
         for f in self.faults:
             if f.onset_day > span:
                 raise ValueError(f"fault {f.type} starts on day {f.onset_day}, after the {span}-day run")
+            if f.type == "nga-level" and not self.forces.nga_sigma_km_s2 > 0.0:
+                raise ValueError("an nga-level fault needs the non-gravitational acceleration on "
+                                 "(forces.nga_sigma_km_s2 > 0)")

@@ -20,8 +20,7 @@ from typing import Iterator
 
 import numpy as np
 
-from fsw.astro.constants import SECONDS_PER_DAY
-from fsw.astro.time import tdb_to_unix, utc_iso_to_tdb
+from fsw.astro.time import tdb_to_unix
 from fsw.interface import topics
 from fsw.interface.messages import FaultEvent, Measurement, Stamp, Truth
 from sim.clock import ClockTruth, simulate_clock
@@ -41,10 +40,11 @@ from sim.faults.dynamics import apply_dynamics_faults
 from sim.sensors.geometry import Scene
 from sim.sensors.optical import OpticalData, simulate_optical
 from sim.sensors.radiometric import RadioData, simulate_radiometric
-from sim.trajectories.insight import build_truth_trajectory
+from sim.trajectories.design import arc_span, build_truth_trajectory
 
-#: Components with their own random stream, in spawn order (append only: never reorder).
-COMPONENTS: tuple[str, ...] = ("trajectory", "clock", "radiometric", "optical")
+#: Components with their own random stream, in spawn order (append only: never reorder;
+#: a spawned child depends only on its index, so appending leaves the others unchanged).
+COMPONENTS: tuple[str, ...] = ("trajectory", "clock", "radiometric", "optical", "nga")
 
 _CLOCK_MARGIN_S = 3600.0
 
@@ -142,9 +142,8 @@ def _truth_messages(trajectory, clock: ClockTruth, windows, t: np.ndarray) -> li
 
 
 def scenario_span(cfg: SimConfig) -> tuple[float, float]:
-    """(t_start, t_end) TDB of the run: the approach arc ending at the entry epoch."""
-    t_end = utc_iso_to_tdb(cfg.trajectory.entry_epoch_utc)
-    return t_end - cfg.trajectory.span_days * SECONDS_PER_DAY, t_end
+    """(t_start, t_end) TDB of the run (the approach arc ending at entry, or the cruise arc)."""
+    return arc_span(cfg.trajectory)
 
 
 def generate(cfg: SimConfig = SimConfig(), faults: tuple[FaultConfig, ...] | None = None, seed: int = 0) -> SimRun:
@@ -157,7 +156,8 @@ def generate(cfg: SimConfig = SimConfig(), faults: tuple[FaultConfig, ...] | Non
         if w.t_on > t_end:
             raise ValueError(f"fault {w.id} starts after the end of the run")
 
-    nominal = build_truth_trajectory(cfg.trajectory, cfg.forces, np.random.default_rng(seeds["trajectory"]))
+    nominal = build_truth_trajectory(cfg.trajectory, cfg.forces, np.random.default_rng(seeds["trajectory"]),
+                                     np.random.default_rng(seeds["nga"]))
     trajectory = apply_dynamics_faults(
         nominal, cfg.trajectory, cfg.forces, windows, lambda: np.random.default_rng(seeds["trajectory"])
     )

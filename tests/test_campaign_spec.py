@@ -128,11 +128,19 @@ def test_builtin_campaigns_expand():
     t3 = expand(load_campaign("seed001-table3"))
     assert len(t3.cells) == 7
     assert all([g["network"] for g in t.scenario["fsw"]["gating"]] == ["chi2", "magill"] for t in t3.tasks)
-    dm = expand(load_campaign("detection-matrix"))
     from sim.faults.presets import FAULT_PRESETS
-    assert {t.cell.fault for t in dm.tasks} == set(FAULT_PRESETS)
-    assert {t.detector_network for t in dm.tasks} == {"chi2", "chi2-two-sided", "magill"}
-    assert len(dm.tasks) == len(FAULT_PRESETS) * 3 * 20
+    from tools.campaign.spec import builtin_dir
+
+    if builtin_dir().joinpath("detectors", "detector-chi2.yaml").is_file():
+        # one run per case and seed carries all three detectors (tests/test_campaign_monitors.py)
+        dm = expand(load_campaign("detection-matrix"))
+        assert {t.cell.fault for t in dm.tasks} == set(FAULT_PRESETS)
+        assert {t.detector_network for t in dm.tasks} == {"chi2"}
+        assert all(sorted(t.monitors) == ["chi2-two-sided", "magill"] for t in dm.tasks)
+        assert len(dm.tasks) == len(FAULT_PRESETS) * 20
+    else:  # the calibrations are not generated yet: a one-line error naming the missing file
+        with pytest.raises(ConfigError, match="detectors/detector-chi2.yaml"):
+            expand(load_campaign("detection-matrix"))
     t4 = expand(load_campaign("seed001-table4"))
     banks = {t.cell.scenario: [f["name"] for f in t.scenario["fsw"]["bank"]["filters"]] for t in t4.tasks}
     assert all(len(b) == 6 for b in banks.values())

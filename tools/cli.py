@@ -27,6 +27,7 @@ COMMANDS = (
     "tools.commands.report",
     "tools.commands.campaign",
     "tools.commands.calibrate",
+    "tools.commands.validation_report",
 )
 
 

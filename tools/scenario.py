@@ -20,7 +20,7 @@ from fsw.interface.typed import spec
 from fsw.interface.yamlconfig import ConfigError, dump_yaml, load_file, load_text
 from sim.config import SimConfig
 from sim.faults.presets import FAULT_PRESETS, preset
-from sim.trajectories.insight import insight_initial_state
+from sim.trajectories.design import initial_state as design_initial_state
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,7 @@ def initial_state(cfg: ScenarioConfig, seed: int) -> InitialState:
     Drawn from its own generator so it never changes the simulator's noise draws."""
     if cfg.fsw.initial_state is not None:
         return cfg.fsw.initial_state
-    t0, x0 = insight_initial_state(cfg.sim.trajectory, cfg.sim.forces)
+    t0, x0 = design_initial_state(cfg.sim.trajectory, cfg.sim.forces)
     f0 = cfg.fsw.bank.filters[0]
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x0A1B]))
     dr = rng.normal(0.0, f0.position_sigma_km, 3)

@@ -1,7 +1,10 @@
 """Deep Space Network stations: positions, velocities and elevation angles.
 
-ITRF coordinates of the 70 m antennas from the DSN Telecommunications Link Design Handbook
-810-005, module 301 (ITRF93, epoch 2003.0); tectonic drift (a few cm/yr) is ignored.
+ITRF coordinates of the 70 m antennas and of the 34 m high-efficiency antennas DSS 15, 45 and 65
+(the stations of seed 000's Mars Pathfinder cruise) from the DSN Telecommunications Link Design
+Handbook 810-005, module 301 (Rev. M, Table of station locations, ITRF93, epoch 2003.0; also in
+NAIF's earth_topo_201023.tf). DSS 15 and DSS 45 are decommissioned; DSS 65 is at its post-2005
+location, a few metres from where it tracked Pathfinder. Tectonic drift (a few cm/yr) is ignored.
 """
 
 from __future__ import annotations
@@ -44,12 +47,16 @@ STATIONS: dict[str, Station] = {
     "DSS-14": Station("DSS-14", "goldstone", (-2353.621420, -4641.341472, 3677.052318)),
     "DSS-43": Station("DSS-43", "canberra", (-4460.894917, 2682.361507, -3674.748152)),
     "DSS-63": Station("DSS-63", "madrid", (4849.092518, -360.180346, 4115.109251)),
+    "DSS-15": Station("DSS-15", "goldstone", (-2353.538958, -4641.649429, 3676.669984)),
+    "DSS-45": Station("DSS-45", "canberra", (-4460.935578, 2682.765661, -3674.380982)),
+    "DSS-65": Station("DSS-65", "madrid", (4849.339634, -360.4276637, 4114.750733)),
 }
 
 _ALIASES = {
     "dss14": "DSS-14", "goldstone": "DSS-14", "gds": "DSS-14", "gdscc": "DSS-14",
     "dss43": "DSS-43", "canberra": "DSS-43", "cdscc": "DSS-43",
     "dss63": "DSS-63", "madrid": "DSS-63", "mdscc": "DSS-63",
+    "dss15": "DSS-15", "dss45": "DSS-45", "dss65": "DSS-65",
 }
 
 

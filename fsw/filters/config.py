@@ -67,11 +67,24 @@ class AcsConfig:
 
 @dataclass(frozen=True, slots=True)
 class PolyAccelConfig:
-    """Batched polynomial acceleration (seed 001 §4.4 process-noise model)."""
+    """Batched polynomial acceleration on the inertial axes (seed 001 §4.4 process-noise model).
 
-    sigma_km_s2: float = spec(0.0, doc="a-priori 1-sigma of every coefficient; 0 disables the block", unit="km/s^2", ge=0.0)
+    Without ``correlation_time_s`` the coefficients are re-initialised each batch (independent
+    batches). With it each coefficient is an ECRV stepping at the batch edges by seed 000 eqs.
+    25–26 (x ← m x, P ← m² P + σ² (1 − m²), m = exp(−T_b/τ)): degree 0 with hour batches is
+    seed 000's non-gravitational acceleration model."""
+
+    sigma_km_s2: float = spec(
+        0.0, doc="a-priori (and steady-state) 1-sigma of every coefficient; 0 disables the block", unit="km/s^2", ge=0.0
+    )
     degree: int = spec(1, doc="polynomial degree in normalised batch time", ge=0, le=3)
-    batch_length_s: float = spec(DAY_S, doc="batch length; coefficients are re-initialised each batch", unit="s", gt=0.0)
+    batch_length_s: float = spec(
+        DAY_S, doc="batch length; coefficients are re-initialised (or step as ECRVs) each batch", unit="s", gt=0.0
+    )
+    correlation_time_s: float | None = spec(
+        None, doc="ECRV correlation time of the coefficients between batches; null: independent batches",
+        unit="s", gt=0.0,
+    )
 
 
 @dataclass(frozen=True, slots=True)

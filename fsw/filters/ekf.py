@@ -13,7 +13,8 @@ Propagation between measurements (t → t'):
 * P ← Φ P Φᵀ + Q with the clock process noise (:mod:`fsw.models.clock`) and optional white
   acceleration noise on the velocity (SNC: Q_rr = q h³/3, Q_rv = q h²/2, Q_vv = q h);
 * at every batch boundary the batched stochastic parameters step as ECRVs (seed 000 eqs.
-  25–26; seed 001 Table 1), the polynomial acceleration coefficients are re-initialised; at a
+  25–26; seed 001 Table 1), the polynomial acceleration coefficients are re-initialised (or,
+  with a correlation time, step as ECRVs: seed 000's non-gravitational acceleration); at a
   manoeuvre epoch the planned Δv is added and its execution uncertainty added to P_vv.
   Batches are counted from the bank's initial epoch (the spacecraft schedules its own daily
   ACS activity from the start of the arc) unless ``batch_origin_tdb_s`` says otherwise.
@@ -172,7 +173,8 @@ class EKFStack:
             s = L.slices["accel"]
             for idx in range(s.start, s.stop):
                 self.batched.append(_Batched(idx, np.array([f.accel.sigma_km_s2 for f in cfgs]),
-                                             np.array([f.accel.batch_length_s for f in cfgs]), [None] * N, origin))
+                                             np.array([f.accel.batch_length_s for f in cfgs]),
+                                             [f.accel.correlation_time_s for f in cfgs], origin))
         self.clock_q = np.zeros((N, 3))
         for i, f in enumerate(cfgs):
             k = f.clock.components

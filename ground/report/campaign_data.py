@@ -17,6 +17,12 @@ Scoring (per run, from its summary's ``anomaly`` block):
 * diagnosed class — the declared class, ``none`` if nothing was declared;
 * latency — declaration epoch minus true onset.
 
+Monitors: a run whose variant evaluated several detectors (``detector.monitors`` and the summary's
+``monitors.<network>`` blocks, same keys as ``anomaly``) is scored once per detector, as if each
+were its own variant labelled ``<variant> / <network>`` (:func:`detector_rows`); the detection
+statistics and confusion matrices therefore come out per network, while the weights are read
+from the runs once.
+
 Detection probabilities carry exact (Clopper–Pearson) intervals, the same as the campaign's own
 ``summary.json`` (:func:`fsw.fdir.calibrate.clopper_pearson`).
 """
@@ -129,6 +135,39 @@ def cell_parts(row: dict) -> dict[str, str]:
     return parts
 
 
+def detector_rows(rows: list[dict]) -> list[dict]:
+    """Every row once per detector it carries: unchanged without monitors; else one row for the
+    onboard detector and one per monitor, with the cell's variant relabelled
+    ``<variant> / <network>`` and ``anomaly`` that detector's block. A monitor that could not be
+    evaluated (``{"error": ...}``) is left out. Rows already split are returned as they are."""
+    out: list[dict] = []
+    for r in rows:
+        det = r.get("detector") if isinstance(r.get("detector"), dict) else {}
+        nets = list(det.get("monitors") or [])
+        if not nets or "base_variant" in r:
+            out.append(r)
+            continue
+        parts = cell_parts(r)
+        onboard = det.get("network")
+        monitors = r.get("monitors") or {}
+        base = {k: v for k, v in r.items() if k != "monitors"}
+        views = [(onboard, r.get("anomaly"), {k: v for k, v in det.items() if k != "monitors"}, "")]
+        views += [(net, monitors.get(net), {"network": net, "calibrated": True},
+                   " (replayed)" if net == onboard else "") for net in nets]
+        for net, anomaly, detector, mark in views:
+            if not isinstance(anomaly, dict) or "error" in anomaly:
+                continue
+            out.append({**base, "cell": {**parts, "variant": f"{parts['variant']} / {net}{mark}"},
+                        "anomaly": anomaly, "detector": detector, "base_variant": parts["variant"],
+                        "detector_network": net})
+    return out
+
+
+def detector_of(row: dict) -> str:
+    det = row.get("detector") if isinstance(row.get("detector"), dict) else {}
+    return str(row.get("detector_network") or det.get("network") or (row.get("anomaly") or {}).get("network") or "")
+
+
 def case_of(row: dict) -> str:
     return cell_parts(row)["fault"]
 
@@ -195,6 +234,8 @@ class CaseStats:
     correct_class: int
     latencies_h: list[float]
     show_variant: bool = False  # the campaign has more than one network variant
+    detector: str = ""  # the gating network the detector watched
+    base_variant: str = ""  # the campaign's variant (without the detector part for monitors)
 
     @property
     def faulted(self) -> bool:
@@ -238,8 +279,9 @@ def variants(rows: list[dict]) -> list[str]:
 
 
 def case_stats(rows: list[dict]) -> list[CaseStats]:
-    """Detection statistics per (variant, fault case), over runs with a calibrated detector."""
-    rows = [r for r in rows if calibrated(r)]
+    """Detection statistics per (variant, fault case), over runs with a calibrated detector
+    (each monitored network its own variant, :func:`detector_rows`)."""
+    rows = [r for r in detector_rows(rows) if calibrated(r)]
     out = []
     several = len(variants(rows)) > 1
     for var in variants(rows):
@@ -253,15 +295,21 @@ def case_stats(rows: list[dict]) -> list[CaseStats]:
                 false_alarms=sum(false_alarm(r) for r in rs),
                 correct_class=sum(detected(r) and diagnosed_class(r) == true_class(r) for r in rs),
                 latencies_h=[lat for r in rs if (lat := latency_h(r)) is not None],
-                show_variant=several,
+                show_variant=several, detector=detector_of(rs[0]),
+                base_variant=str(rs[0].get("base_variant", var)),
             ))
     return out
 
 
-def confusion(rows: list[dict]) -> tuple[tuple[str, ...], np.ndarray]:
-    """Counts of (injected class, diagnosed class) over runs with a calibrated detector; rows
-    injected, columns diagnosed."""
-    rows = [r for r in rows if calibrated(r)]
+def detector_variants(rows: list[dict]) -> list[str]:
+    """The variants as scored: one per detector (see :func:`detector_rows`)."""
+    return variants([r for r in detector_rows(rows) if calibrated(r)])
+
+
+def confusion(rows: list[dict], variant: str | None = None) -> tuple[tuple[str, ...], np.ndarray]:
+    """Counts of (injected class, diagnosed class) over runs with a calibrated detector — of one
+    scored variant (:func:`detector_variants`) if given; rows injected, columns diagnosed."""
+    rows = [r for r in detector_rows(rows) if calibrated(r) and (variant is None or variant_of(r) == variant)]
     classes = list(ANOMALY_CLASSES)
     for r in rows:
         for c in (true_class(r), diagnosed_class(r)):
@@ -333,3 +381,118 @@ def mean_weights(rows: list[dict], network: str, variant: str = "", which: str =
 def describe_rows(rows: list[dict]) -> dict[str, Any]:
     """A few headline numbers of a campaign."""
     return {"runs": len(rows), "cases": len(cases(rows)), "variants": variants(rows), "networks": networks(rows)}
+
+
+WEIGHTS_DIR = "weights"
+DAY_S = 86400.0
+
+
+def kept_networks(camp: Campaign) -> list[str]:
+    """Networks whose weight histories the campaign kept (``weights/<network>/<run id>.npz``)."""
+    wdir = camp.path / WEIGHTS_DIR
+    if not wdir.is_dir():
+        return []
+    return sorted(p.name for p in wdir.iterdir() if p.is_dir() and any(p.glob("*.npz")))
+
+
+def load_history(camp: Campaign, network: str, run_id: str) -> dict[str, np.ndarray] | None:
+    """One run's stored weight history of ``network`` (None when absent or unreadable)."""
+    path = camp.path / WEIGHTS_DIR / network / f"{run_id}.npz"
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    except (OSError, ValueError):
+        return None
+
+
+def start_epoch(row: dict) -> float | None:
+    """The run's scenario start epoch: the summary's ``t0``, else from the true onset and its day."""
+    if row.get("t0") is not None:
+        return float(row["t0"])
+    a = row.get("anomaly") or {}
+    if a.get("onset_true") is not None and a.get("onset_true_day") is not None:
+        return float(a["onset_true"]) - float(a["onset_true_day"]) * DAY_S
+    return None
+
+
+@dataclass
+class WeightHistory:
+    """Weights vs day since scenario start of one network, per fault case, over seeds: each run's
+    batch weights held until its next batch and sampled on a common grid; ``median``, ``p10``,
+    ``p90`` are ``[case, time, filter]``; ``onset_day`` the median true onset per case (NaN when
+    nominal); ``n`` the runs per case. ``origin`` names day 0: the scenario start, or — for rows
+    that do not record it (summaries without ``t0`` and without a fault onset) — the first batch."""
+
+    network: str
+    scenario: str
+    variant: str
+    cases: list[str]
+    filters: list[str]
+    days: np.ndarray
+    median: np.ndarray
+    p10: np.ndarray
+    p90: np.ndarray
+    onset_day: np.ndarray
+    n: np.ndarray
+    origin: str = "scenario start"
+
+
+def weight_history(camp: Campaign, network: str, scenario: str, variant: str = "", points: int = 400) -> WeightHistory | None:
+    """The kept weight histories of ``network`` for one scenario and variant (None when no run of
+    them kept one)."""
+    rows = [r for r in camp.rows if cell_parts(r)["scenario"] == scenario and variant_of(r) == variant]
+    runs: dict[str, list[tuple[np.ndarray, np.ndarray, list[str]]]] = {}
+    onsets: dict[str, list[float]] = {}
+    histories = [(r, h) for r in rows if (h := load_history(camp, network, str(r.get("id")))) is not None
+                 and h["weights"].size > 0]
+    if not histories:
+        return None
+    # runs of one scenario share its start epoch: a row that does not record it borrows another's
+    t0_common = next((t for r, _ in histories if (t := start_epoch(r)) is not None), None)
+    origin = "scenario start"
+    if t0_common is None:
+        t0_common = min(float(h["t_s"][0]) for _, h in histories)
+        origin = "first gating batch"
+    for r, h in histories:
+        t0 = start_epoch(r)
+        t0 = t0 if t0 is not None else t0_common
+        case = case_of(r)
+        runs.setdefault(case, []).append(((h["t_s"] - t0) / DAY_S, h["weights"], [str(f) for f in h["filters"]]))
+        od = (r.get("anomaly") or {}).get("onset_true_day")
+        if od is not None:
+            onsets.setdefault(case, []).append(float(od))
+    filters: list[str] = []
+    for hs in runs.values():
+        for _, _, names in hs:
+            filters.extend(f for f in names if f not in filters)
+    end = max(float(d[-1]) for hs in runs.values() for d, _, _ in hs)
+    days = np.linspace(0.0, end, points)
+    case_list = [c for c in _ordered(runs)]
+    shape = (len(case_list), points, len(filters))
+    med, lo, hi = np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan)
+    for ci, case in enumerate(case_list):
+        stack = np.full((len(runs[case]), points, len(filters)), np.nan)
+        for k, (d, w, names) in enumerate(runs[case]):
+            idx = np.searchsorted(d, days, side="right") - 1  # the latest batch at each grid epoch
+            valid = idx >= 0
+            cols = [names.index(f) if f in names else None for f in filters]
+            for fi, col in enumerate(cols):
+                if col is not None:
+                    stack[k, valid, fi] = w[idx[valid], col]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # grid epochs before any run's first batch
+            med[ci], lo[ci], hi[ci] = np.nanpercentile(stack, [50.0, 10.0, 90.0], axis=0)
+    onset = np.array([float(np.median(onsets[c])) if onsets.get(c) else np.nan for c in case_list])
+    n = np.array([len(runs[c]) for c in case_list])
+    return WeightHistory(network, scenario, variant, case_list, filters, days, med, lo, hi, onset, n, origin)
+
+
+def scenarios(rows: list[dict]) -> list[str]:
+    seen: list[str] = []
+    for r in rows:
+        s = cell_parts(r)["scenario"]
+        if s not in seen:
+            seen.append(s)
+    return seen

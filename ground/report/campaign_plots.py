@@ -4,7 +4,16 @@
   grouped bars, the layout of seed 001 Tables 3/4; small/medium/large cases of one fault family
   share a group (lighter → darker), error bars are the run-to-run spread;
   ``mean_weights_after_onset_…`` the same over the faulted part of each run only;
-* ``confusion_matrix.png`` — injected vs diagnosed anomaly class, counts annotated;
+* ``confusion_matrix.png`` — injected vs diagnosed anomaly class, counts annotated (campaigns
+  with one detector);
+* ``networks_compared.png`` — campaigns with several detectors (network variants, or monitors:
+  several networks' detectors on the same runs): detection probability per fault case as grouped
+  bars with 95 % exact intervals (nominal case: false-alarm rate), and one confusion matrix per
+  detector in a row of panels;
+* ``weights_vs_time_<network>_<scenario>[_<variant>].png`` — for every network whose weight
+  histories the campaign kept (``keep_weights``): weights vs day since scenario start, one panel
+  per fault case, per filter the median over seeds with a 10–90 % band, the true fault onset
+  marked (the analogue of seed 001 Figs. 10, 11, 15, 16); nothing when no history was kept;
 * ``detection_latency.png`` — latency histogram per faulted case;
 * ``detection_probability.png`` — detection probability per case with 95 % exact (Clopper–Pearson) intervals
   (nominal cases: the false-alarm rate).
@@ -166,6 +175,136 @@ def plot_detection_probability(stats: list[C.CaseStats], path: Path | None = Non
     return F.finish(fig, path)
 
 
+def _confusion_panel(ax: Any, classes: tuple[str, ...], mat: np.ndarray, rows: list[int], cols: list[int],
+                     title: str, ylabels: bool) -> Any:
+    M = mat[np.ix_(rows, cols)]
+    frac = M / np.maximum(M.sum(axis=1, keepdims=True), 1)
+    im = ax.imshow(frac, cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto")
+    for r in range(M.shape[0]):
+        for c in range(M.shape[1]):
+            ax.text(c, r, f"{M[r, c]}", ha="center", va="center", fontsize=9,
+                    color="white" if frac[r, c] > 0.6 else "black")
+    ax.set_xticks(range(len(cols)), [classes[j].replace("-", "-\n", 1) for j in cols], fontsize=7)
+    ax.set_yticks(range(len(rows)), [classes[i].replace("-", "-\n", 1) for i in rows] if ylabels else [], fontsize=7)
+    correct = int(sum(M[r, c] for r, i in enumerate(rows) for c, j in enumerate(cols) if i == j))
+    ax.set_title(f"{title}\n{correct} of {int(M.sum())} on the diagonal", fontsize=9)
+    ax.set_xlabel("diagnosed", fontsize=8)
+    return im
+
+
+def plot_detectors_compared(stats: list[C.CaseStats], confusions: dict[str, tuple[tuple[str, ...], np.ndarray]],
+                            path: Path | None = None) -> Any:
+    """Detectors side by side: P_D per fault case (grouped bars, one per detector, 95 % exact
+    intervals; the nominal case shows the false-alarm rate, hatched) above one confusion matrix
+    per detector (row fractions as colour, counts annotated)."""
+    dets = list(confusions)
+    if len(dets) < 2 or not stats:
+        return None
+    bases = {s.base_variant for s in stats}
+    names = {d: (d.split(" / ", 1)[1] if len(bases) == 1 and " / " in d else d) for d in dets}
+    case_list = C._ordered(s.case for s in stats)
+    by = {(s.case, s.variant): s for s in stats}
+    n = len(dets)
+    Figure, Canvas = F.figure_class()
+    fig = Figure(figsize=(min(11.5, max(10.0, 3.6 * n)), 8.2), dpi=F.DPI, layout="constrained")
+    Canvas(fig)
+    mosaic = [["bars"] * n, [f"cm{i}" for i in range(n)]]
+    axd = fig.subplot_mosaic(mosaic, height_ratios=[1.1, 1.0])
+    ax = axd["bars"]
+    from matplotlib.patches import Patch
+
+    width = 0.8 / n
+    handles: list[Any] = []
+    for k, d in enumerate(dets):
+        color = F.PALETTE[k % len(F.PALETTE)]
+        handles.append(Patch(facecolor=color, edgecolor="black", linewidth=0.4, label=names[d]))
+        for i, case in enumerate(case_list):
+            s = by.get((case, d))
+            if s is None or s.n == 0:
+                continue
+            x = i + (k - (n - 1) / 2.0) * width
+            lo, hi = s.interval
+            ax.bar(x, s.rate, width=width * 0.9, color=color, edgecolor="black", linewidth=0.4,
+                   hatch=None if s.faulted else "//")
+            ax.errorbar(x, s.rate, yerr=[[s.rate - lo], [hi - s.rate]], fmt="none", ecolor="black", capsize=2, elinewidth=0.8)
+    ax.set_xticks(range(len(case_list)), [c if c != "none" else "none (FA rate)" for c in case_list],
+                  rotation=25, ha="right", fontsize=8)
+    ax.set_xlim(-0.6, len(case_list) - 0.4)
+    ax.set_ylim(0.0, 1.08)
+    ax.set_ylabel("P(detect) [-]")
+    ax.grid(True, axis="y", alpha=0.3)
+    handles.append(Patch(facecolor="white", edgecolor="black", linewidth=0.4, hatch="//",
+                         label="false-alarm rate (nominal)"))
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8,
+              title="detector", title_fontsize=8)
+    ax.set_title("Detection probability per fault case and detector (95 % Clopper–Pearson; hatched: false-alarm rate)",
+                 fontsize=10)
+    classes_all: list[str] = []
+    for classes, _ in confusions.values():
+        classes_all += [c for c in classes if c not in classes_all]
+    full = {}
+    for d, (classes, mat) in confusions.items():
+        idx = [classes.index(c) if c in classes else None for c in classes_all]
+        M = np.zeros((len(classes_all), len(classes_all)), dtype=int)
+        for a, ia in enumerate(idx):
+            for b, ib in enumerate(idx):
+                if ia is not None and ib is not None:
+                    M[a, b] = mat[ia, ib]
+        full[d] = M
+    rows = [i for i in range(len(classes_all)) if any(M[i].sum() > 0 for M in full.values())]
+    cols = [j for j in range(len(classes_all)) if any(M[:, j].sum() > 0 for M in full.values()) or j in rows]
+    im = None
+    for i, d in enumerate(dets):
+        im = _confusion_panel(axd[f"cm{i}"], tuple(classes_all), full[d], rows, cols, names[d], ylabels=i == 0)
+    axd["cm0"].set_ylabel("injected", fontsize=8)
+    if im is not None:
+        cb = fig.colorbar(im, ax=[axd[f"cm{i}"] for i in range(n)], fraction=0.03, pad=0.01)
+        cb.set_label("fraction of injected class", fontsize=8)
+    return F.finish(fig, path)
+
+
+def plot_weight_history(wh: C.WeightHistory, path: Path | None = None, *, show_variant: bool = False) -> Any:
+    """Weights vs day, one panel per fault case: per filter the median over seeds (line) and the
+    10–90 % band over seeds (shaded); dashed red: the true fault onset."""
+    nc = len(wh.cases)
+    ncols = 1 if nc == 1 else (2 if nc <= 4 else 3)
+    nrows = math.ceil(nc / ncols)
+    fig, axes = F.new_figure(nrows, ncols, size=(10.0, 1.2 + 2.2 * nrows) if nc > 1 else (10.0, 4.2),
+                             sharex=True, sharey=True)
+    axes = np.atleast_1d(axes).ravel()
+    styles = F.filter_styles(wh.filters)
+    for ax, (ci, case) in zip(axes, enumerate(wh.cases)):
+        for fi, f in enumerate(wh.filters):
+            st = styles[f]
+            ax.fill_between(wh.days, wh.p10[ci, :, fi], wh.p90[ci, :, fi], color=st["color"], alpha=0.18, linewidth=0)
+            ax.plot(wh.days, wh.median[ci, :, fi], color=st["color"], linestyle=st["linestyle"], linewidth=1.3)
+        if np.isfinite(wh.onset_day[ci]):
+            ax.axvline(wh.onset_day[ci], color="tab:red", linestyle="--", linewidth=1.0)
+        ax.axhline(1.0 / len(wh.filters), color="gray", linestyle=":", linewidth=0.8)
+        ax.set_title(f"{case} ({wh.n[ci]} run{'s' if wh.n[ci] != 1 else ''})", fontsize=9)
+        ax.set_ylim(-0.02, 1.02)
+        ax.grid(True, alpha=0.3)
+    for ax in axes[nc:]:
+        ax.set_visible(False)
+    for i, ax in enumerate(axes[:nc]):
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel("weight [-]")
+        if i + ncols >= nc:  # the lowest panel of its column
+            ax.xaxis.set_tick_params(labelbottom=True)
+            ax.set_xlabel(f"day since {wh.origin}")
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = [Line2D([], [], color=styles[f]["color"], linestyle=styles[f]["linestyle"], label=f) for f in wh.filters]
+    handles.append(Patch(facecolor="gray", alpha=0.25, label="10–90 % over seeds"))
+    if np.isfinite(wh.onset_day).any():
+        handles.append(Line2D([], [], color="tab:red", linestyle="--", label="true fault onset"))
+    fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncol=len(handles))
+    var = f", variant '{wh.variant}'" if wh.variant and show_variant else ""
+    fig.suptitle(f"'{wh.network}' weights vs time, {wh.scenario}{var}: median over seeds, 10–90 % band")
+    return F.finish(fig, path)
+
+
 def write_campaign_figures(campaign: C.Campaign | str | Path, out_dir: str | Path) -> list[Path]:
     """Write every campaign figure into ``out_dir``; returns the paths written."""
     camp = campaign if isinstance(campaign, C.Campaign) else C.load_campaign(campaign)
@@ -187,10 +326,24 @@ def write_campaign_figures(campaign: C.Campaign | str | Path, out_dir: str | Pat
                     continue
                 written.append(plot_mean_weights(mw, out / f"{stem}_{suffix}.png", after_onset=after,
                                                  show_variant=multi_variant))
-    classes, mat = C.confusion(rows)
-    if mat.sum() > 0:  # nothing to score when no run had a calibrated detector
-        written.append(plot_confusion(classes, mat, out / "confusion_matrix.png"))
+    for net in C.kept_networks(camp):
+        for scen in C.scenarios(rows):
+            for var in C.variants(rows):
+                wh = C.weight_history(camp, net, scen, var)
+                if wh is None:
+                    continue
+                name = f"weights_vs_time_{F.slug(net)}_{F.slug(scen)}" + (f"_{F.slug(var)}" if multi_variant and var else "")
+                written.append(plot_weight_history(wh, out / f"{name}.png", show_variant=multi_variant))
     stats = C.case_stats(rows)
+    dvars = C.detector_variants(rows)
+    if len(dvars) > 1:
+        p = plot_detectors_compared(stats, {v: C.confusion(rows, v) for v in dvars}, out / "networks_compared.png")
+        if p is not None:
+            written.append(p)
+    else:
+        classes, mat = C.confusion(rows)
+        if mat.sum() > 0:  # nothing to score when no run had a calibrated detector
+            written.append(plot_confusion(classes, mat, out / "confusion_matrix.png"))
     for fn, name in ((plot_latency, "detection_latency.png"), (plot_detection_probability, "detection_probability.png")):
         p = fn(stats, out / name)
         if p is not None:

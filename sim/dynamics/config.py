@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 from fsw.interface.typed import spec
 
@@ -73,6 +74,14 @@ class ForceModelConfig:
         shape=(None, 3),
     )
     maneuvers: tuple[ManeuverConfig, ...] = spec((), doc="impulsive TCMs, in any order")
+    nga_sigma_km_s2: float = spec(
+        0.0, doc="steady-state 1-sigma of the non-gravitational acceleration ECRV per inertial axis "
+        "(seed 000 eqs. 25-26); 0 switches it off", unit="km/s^2", ge=0.0,
+    )
+    nga_tau_days: float = spec(7.0, doc="correlation time of the non-gravitational acceleration", unit="day", gt=0.0)
+    nga_batch_s: float = spec(
+        3600.0, doc="the non-gravitational acceleration is constant over batches of this length", unit="s", gt=0.0
+    )
 
     def __post_init__(self) -> None:
         if not self.acs_directions_body:
@@ -90,6 +99,7 @@ class ForceModelConfig:
             acs_bias_sigma_rel=0.0,
             acs_daily_sigma_rel=0.0,
             acs_direction_sigma_deg=0.0,
+            nga_sigma_km_s2=0.0,
             maneuvers=tuple(dataclasses.replace(m, dv_sigma_rel=0.0) for m in self.maneuvers),
         )
 
@@ -106,7 +116,13 @@ def thruster_scale_truth(forces: ForceModelConfig) -> ForceModelConfig:
 
 @dataclass(frozen=True, slots=True)
 class TrajectoryConfig:
-    """The InSight-like approach: entry-interface conditions and the arc length before them.
+    """The trajectory: which built-in design (``kind``) and its defining numbers.
+
+    ``insight-approach`` (the default) is the InSight-like approach; the entry-interface fields
+    and ``span_days`` (the arc ending at entry) define it. ``pathfinder-cruise`` is the Mars
+    Pathfinder-like Type-I cruise of :mod:`sim.trajectories.pathfinder`: the launch and arrival
+    epochs define the Lambert transfer; the arc starts ``cruise_start_offset_days`` after
+    launch and lasts ``span_days``.
 
     Public InSight EDL facts: entry 2018-11-26 ~19:47 UTC, entry-interface radius 3522.2 km
     (~128 km above the local surface at Elysium Planitia, 126 km above the equatorial radius),
@@ -119,6 +135,9 @@ class TrajectoryConfig:
     launch C3 of 8.2 km^2/s^2 is v_inf 2.86 km/s), perihelion 1.01 AU, 2.3 deg to the ecliptic.
     """
 
+    kind: Literal["insight-approach", "pathfinder-cruise"] = spec(
+        "insight-approach", doc="built-in trajectory design: insight-approach or pathfinder-cruise"
+    )
     entry_epoch_utc: str = spec("2018-11-26T19:47:00", doc="entry-interface epoch, ISO 8601 UTC")
     entry_radius_km: float = spec(3522.2, doc="entry-interface radius from Mars' centre", unit="km", gt=3396.19)
     entry_fpa_deg: float = spec(-12.0, doc="inertial flight-path angle at entry", unit="deg", gt=-90.0, lt=0.0)
@@ -126,7 +145,23 @@ class TrajectoryConfig:
     entry_latitude_deg: float = spec(0.0, doc="planetocentric latitude of the entry point", unit="deg", ge=-90.0, le=90.0)
     entry_longitude_deg: float = spec(124.0, doc="east longitude of the entry point (IAU body-fixed)", unit="deg")
     entry_azimuth_deg: float = spec(77.0, doc="inertial heading at entry, clockwise from north", unit="deg")
-    span_days: float = spec(45.0, doc="length of the approach arc ending at entry", unit="day", gt=0.0, le=400.0)
+    span_days: float = spec(
+        45.0, doc="length of the arc (insight-approach: ending at entry; pathfinder-cruise: from its start)",
+        unit="day", gt=0.0, le=400.0,
+    )
+    launch_epoch_utc: str = spec(
+        "1996-12-04T06:58:07", doc="pathfinder-cruise: launch (Lambert departure from Earth), ISO 8601 UTC"
+    )
+    arrival_epoch_utc: str = spec(
+        "1997-07-04T16:57:00", doc="pathfinder-cruise: Mars arrival (Lambert arrival at Mars' centre), ISO 8601 UTC"
+    )
+    cruise_start_offset_days: float = spec(
+        1.0, doc="pathfinder-cruise: start of the simulated arc after launch", unit="day", gt=0.0
+    )
+    aim_days_before_arrival: float = spec(
+        10.0, doc="pathfinder-cruise: the design trajectory is corrected to pass through the Lambert conic's "
+        "position this long before arrival", unit="day", gt=0.0,
+    )
     rtol: float = spec(1e-12, doc="integrator relative tolerance", unit="1", gt=0.0, lt=1e-3)
     atol_km: float = spec(1e-6, doc="integrator absolute tolerance on position", unit="km", gt=0.0)
     atol_km_s: float = spec(1e-12, doc="integrator absolute tolerance on velocity", unit="km/s", gt=0.0)

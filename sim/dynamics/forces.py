@@ -8,6 +8,8 @@ a = -GM_M r/|r|^3                                                   (Mars, centr
                                                                      from the Sun, no shadow:
                                                                      the approach is sunlit)
   + C_body(t) sum_i m_i(t) d_i                                      (ACS thrusting)
+  + a_nga(t)                                                        (non-gravitational
+                                                                     acceleration, ICRF axes)
 
 Cruise body frame (InSight keeps its solar arrays on the Sun): z towards the Sun, x the
 component of the Earth direction across the Sun line, y = z cross x. Earth is represented by
@@ -59,8 +61,10 @@ def make_rhs(
     table: EphemerisTable,
     srp_scale: float,
     acs_body: np.ndarray,
+    nga: np.ndarray | None = None,
 ) -> Callable[[float, np.ndarray], np.ndarray]:
-    """Equations of motion for one segment with constant SRP scale and body-frame ACS vector."""
+    """Equations of motion for one segment with constant SRP scale, body-frame ACS vector and
+    inertial non-gravitational acceleration ``nga`` [km/s^2] (None: none)."""
     if table.bodies[: len(TABLE_BODIES)] != TABLE_BODIES or table.center != "mars":
         raise ValueError(f"the truth dynamics need a Mars-centred table of {TABLE_BODIES}")
     use = [forces.include_sun, forces.include_earth, forces.include_jupiter]
@@ -68,6 +72,7 @@ def make_rhs(
     k_srp = srp_coefficient(forces) * srp_scale if forces.srp_enabled else 0.0
     ax, ay, az = (float(v) for v in acs_body)
     acs_on = (ax, ay, az) != (0.0, 0.0, 0.0)
+    nx, ny, nz = (0.0, 0.0, 0.0) if nga is None else (float(v) for v in nga)
     gm_mars = GM_MARS
     positions = table.positions
     sqrt = math.sqrt
@@ -110,7 +115,7 @@ def make_rhs(
             a0 += ax * xx + ay * yx + az * zx
             a1 += ax * xy + ay * yy + az * zy
             a2 += ax * xz + ay * yz + az * zz
-        return np.array((y[3], y[4], y[5], a0, a1, a2))
+        return np.array((y[3], y[4], y[5], a0 + nx, a1 + ny, a2 + nz))
 
     return rhs
 

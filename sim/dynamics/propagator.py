@@ -1,7 +1,8 @@
 """Numerical propagation of the truth trajectory and the queryable :class:`Trajectory`.
 
 scipy ``solve_ivp`` (DOP853, dense output) is restarted at every discontinuity: batch edges of
-the piecewise-constant SRP scale and ACS magnitudes, and impulsive burns. The integrator thus
+the piecewise-constant SRP scale, ACS magnitudes and non-gravitational acceleration, and
+impulsive burns. The integrator thus
 never steps across a jump, and the dense output of each segment is smooth. Propagation runs
 forwards or backwards; a burn at epoch t_m is applied as v(t_m+) = v(t_m-) + dv, so
 ``Trajectory.state(t_m)`` is the post-burn state.
@@ -118,6 +119,12 @@ class Trajectory:
         m = cruise_attitude(r, p[:, 0], p[:, 1])
         return m[0] if scalar else m
 
+    def nga_accel(self, t) -> np.ndarray:
+        """Realised non-gravitational acceleration in ICRF [km/s^2]: (3,) or (N, 3)."""
+        arr, scalar = self._times(t)
+        out = self.realisation.nga_at(arr)
+        return out[0] if scalar else out
+
     def acs_accel(self, t) -> np.ndarray:
         """Realised ACS acceleration in ICRF [km/s^2]: (3,) or (N, 3)."""
         arr, scalar = self._times(t)
@@ -136,10 +143,13 @@ def propagate(
     rtol: float = 1e-12,
     atol_km: float = 1e-6,
     atol_km_s: float = 1e-12,
+    carry_step: bool | None = None,
 ) -> Trajectory:
     """Integrate from (t_start, x0) to t_end (either direction) under ``forces``/``realisation``.
 
     The realisation must cover the span. Burns with epochs in [min, max) of the span are applied.
+    ``carry_step``: start each segment with the step the previous one ended with instead of
+    re-estimating it (None: only when the realisation has the hour-batched NGA).
     """
     x = np.asarray(x0, dtype=float).reshape(-1)
     if x.shape != (6,) or not np.all(np.isfinite(x)):
@@ -160,17 +170,30 @@ def propagate(
 
     order = range(len(nodes) - 1) if forward else range(len(nodes) - 2, -1, -1)
     segments: list[_Segment] = []
+    # With hour-long NGA batches the segments are far shorter than the natural cruise step, and
+    # re-estimating a (tiny) first step on every segment would cost most of the integration:
+    # each segment then starts with the step the previous one ended with.
+    if carry_step is None:
+        carry_step = realisation.nga_edges is not None
+    first_step: float | None = None
     for k in order:
         a, b = float(nodes[k]), float(nodes[k + 1])
         if forward and a in burns:
             x = x.copy()
             x[3:] += burns[a]
         mid = 0.5 * (a + b)
-        rhs = make_rhs(forces, table, realisation.srp_scale_at(mid), realisation.acs_body_vector_at(mid))
+        nga = realisation.nga_at(mid) if realisation.nga_edges is not None else None
+        rhs = make_rhs(forces, table, realisation.srp_scale_at(mid), realisation.acs_body_vector_at(mid), nga)
         span = (a, b) if forward else (b, a)
-        sol = solve_ivp(rhs, span, x, method="DOP853", rtol=rtol, atol=atol, dense_output=True)
+        if carry_step and first_step is not None:
+            sol = solve_ivp(rhs, span, x, method="DOP853", rtol=rtol, atol=atol, dense_output=True,
+                            first_step=min(first_step, b - a))
+        else:
+            sol = solve_ivp(rhs, span, x, method="DOP853", rtol=rtol, atol=atol, dense_output=True)
         if not sol.success:
             raise DynamicsError(f"integration failed on [{a}, {b}]: {sol.message}")
+        steps = np.abs(np.diff(sol.t))
+        first_step = float(steps[-2:].max()) if steps.size else None
         x = sol.y[:, -1]
         if not np.all(np.isfinite(x)) or np.linalg.norm(x[:3]) < 100.0:
             raise DynamicsError(f"trajectory left the valid domain near t = {span[1]}")

@@ -10,16 +10,25 @@
   Each thruster direction carries a constant pointing error, N(0, sigma^2) on each of two
   transverse axes.
 * TCM execution errors: N(0, (sigma_rel |dv|)^2) per axis.
+* Non-gravitational acceleration (NGA, seed 000 §V): three independent ECRVs on the inertial
+  axes, constant over batches of ``nga_batch_s`` from t0 and stepping by eq. 25 at each edge:
+  x_0 = sigma w_0, x_{k+1} = m x_k + sigma sqrt(1 - m^2) w_{k+1}, m = exp(-T_b/tau), w ~ N(0, 1).
+  The normals w are kept so that a level change (fault ``nga-level``) can continue the same
+  random sequence with another steady-state sigma (:meth:`StochasticRealisation.with_nga_sigma`).
 
 All draws come from the numpy Generator handed in, in a fixed order, so a seed fixes the run.
+The NGA normals come from a second generator of their own, so switching the NGA on or off never
+changes the other draws.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import lfilter
 
 from fsw.astro.constants import SECONDS_PER_DAY
 from sim.dynamics.config import ForceModelConfig
@@ -50,6 +59,10 @@ class StochasticRealisation:
     acs_magnitudes: np.ndarray  # (n_thrusters, na) km/s^2
     acs_directions_body: np.ndarray  # (n_thrusters, 3) unit vectors, pointing errors included
     maneuvers: tuple[Maneuver, ...]
+    nga_edges: np.ndarray | None = None  # (ng+1,) NGA batch edges; None: no NGA
+    nga_accel: np.ndarray | None = None  # (ng, 3) ICRF km/s^2
+    nga_normals: np.ndarray | None = None  # (ng, 3) the standard normals behind nga_accel
+    nga_factor: float = 0.0  # m = exp(-T_b/tau) of the NGA batches
 
     @staticmethod
     def _edges(t0: float, t1: float, batch_s: float) -> np.ndarray:
@@ -59,8 +72,12 @@ class StochasticRealisation:
         return edges
 
     @classmethod
-    def draw(cls, forces: ForceModelConfig, t0: float, t1: float, rng: np.random.Generator | None) -> "StochasticRealisation":
-        """Draw a realisation over [t0, t1]; ``rng`` may be None only if no sigma is non-zero."""
+    def draw(cls, forces: ForceModelConfig, t0: float, t1: float, rng: np.random.Generator | None,
+             nga_rng: np.random.Generator | None = None) -> "StochasticRealisation":
+        """Draw a realisation over [t0, t1]; ``rng`` may be None only if no sigma is non-zero.
+
+        ``nga_rng`` draws the NGA normals (3 per batch); it is needed only when
+        ``forces.nga_sigma_km_s2`` > 0."""
         if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
             raise DynamicsError(f"realisation span must be finite with t1 > t0, got [{t0}, {t1}]")
         random_parts = (forces.srp_bias_sigma, forces.srp_gm_sigma, forces.acs_bias_sigma_rel,
@@ -106,7 +123,32 @@ class StochasticRealisation:
             planned = np.array(m.dv_km_s, dtype=float)
             err = rng.standard_normal(3) * m.dv_sigma_rel * np.linalg.norm(planned)
             mans.append(Maneuver(t0 + m.epoch_offset_days * SECONDS_PER_DAY, planned + err, planned))
-        return cls(float(t0), float(t1), srp_edges, srp_scale, acs_edges, mags, dirs, tuple(mans))
+        out = cls(float(t0), float(t1), srp_edges, srp_scale, acs_edges, mags, dirs, tuple(mans))
+        if forces.nga_sigma_km_s2 > 0.0:
+            if nga_rng is None:
+                raise DynamicsError("a numpy Generator for the NGA is needed when nga_sigma_km_s2 > 0")
+            edges = cls._edges(t0, t1, forces.nga_batch_s)
+            normals = nga_rng.standard_normal((edges.size - 1, 3))
+            m = math.exp(-forces.nga_batch_s / (forces.nga_tau_days * SECONDS_PER_DAY))
+            out = dataclasses.replace(out, nga_edges=edges, nga_normals=normals, nga_factor=m)
+            out = out.with_nga_sigma(np.full(edges.size - 1, forces.nga_sigma_km_s2))
+        return out
+
+    def with_nga_sigma(self, sigma: np.ndarray) -> "StochasticRealisation":
+        """The same NGA normals run through eq. 25 with steady-state sigma[k] in force on batch k.
+
+        Batch 0 starts in steady state, x_0 = sigma_0 w_0; then x_k = m x_{k-1} + sigma_k
+        sqrt(1 - m^2) w_k (eq. 26 with the sigma of the batch being entered)."""
+        if self.nga_normals is None:
+            raise DynamicsError("this realisation has no NGA")
+        sigma = np.asarray(sigma, dtype=float)
+        if sigma.shape != (self.nga_normals.shape[0],) or not np.all(np.isfinite(sigma)) or np.any(sigma < 0):
+            raise DynamicsError("NGA sigma must be one non-negative value per NGA batch")
+        m = self.nga_factor
+        drive = self.nga_normals * (sigma * math.sqrt(1.0 - m * m))[:, None]
+        drive[0] = sigma[0] * self.nga_normals[0]
+        accel = lfilter([1.0], [1.0, -m], drive, axis=0)
+        return dataclasses.replace(self, nga_accel=accel)
 
     @classmethod
     def nominal(cls, forces: ForceModelConfig, t0: float, t1: float) -> "StochasticRealisation":
@@ -132,8 +174,16 @@ class StochasticRealisation:
         """Net ACS acceleration in the cruise body frame [km/s^2]; (3,) or (N, 3)."""
         return self.acs_magnitudes_at(t) @ self.acs_directions_body
 
+    def nga_at(self, t) -> np.ndarray:
+        """Realised NGA [km/s^2], ICRF: (3,) for scalar t, (N, 3) for arrays (zeros without NGA)."""
+        if self.nga_edges is None:
+            t = np.asarray(t, dtype=float)
+            return np.zeros(t.shape + (3,))
+        return self.nga_accel[self._batch(self.nga_edges, t)]
+
     def discontinuities(self) -> np.ndarray:
         """Sorted interior epochs where the piecewise-constant forces or the velocity jump."""
-        pts = np.concatenate([self.srp_edges[1:-1], self.acs_edges[1:-1], [m.t_tdb for m in self.maneuvers]])
+        nga = self.nga_edges[1:-1] if self.nga_edges is not None else np.zeros(0)
+        pts = np.concatenate([self.srp_edges[1:-1], self.acs_edges[1:-1], nga, [m.t_tdb for m in self.maneuvers]])
         pts = pts[(pts > self.t0) & (pts < self.t1)]
         return np.unique(pts)

@@ -99,16 +99,19 @@ def clock_steps(windows: tuple[FaultWindow, ...]) -> tuple[ClockStep, ...]:
 
 def dynamics_windows(windows: tuple[FaultWindow, ...]) -> tuple[FaultWindow, ...]:
     """The faults that change the truth dynamics."""
-    return tuple(w for w in windows if w.config.type in ("thruster-mismodel", "thruster-scale"))
+    return tuple(w for w in windows if w.config.type in ("thruster-mismodel", "thruster-scale", "nga-level"))
 
 
 def faulted_forces(forces, window: FaultWindow):
     """The force-model configuration in force while a dynamics fault is active.
 
     ``thruster-mismodel`` sets the per-thruster bias and daily sigmas to the given multiples of
-    the nominal level (seed 001 §4.4); ``thruster-scale`` multiplies the true ACS magnitude.
+    the nominal level (seed 001 §4.4); ``thruster-scale`` multiplies the true ACS magnitude;
+    ``nga-level`` sets the NGA steady-state sigma.
     """
     c = window.config
+    if c.type == "nga-level":
+        return dataclasses.replace(forces, nga_sigma_km_s2=c.sigma_km_s2)
     if c.type == "thruster-mismodel":
         return dataclasses.replace(forces, acs_bias_sigma_rel=c.bias_sigma_factor, acs_daily_sigma_rel=c.daily_sigma_factor)
     if c.type == "thruster-scale":
@@ -138,6 +141,22 @@ def splice_acs(nominal, faulted_by_window: list[tuple[FaultWindow, object]]):
             raise ValueError("faulted realisation was not drawn from the same random state")
         mags[:, on] = real.acs_magnitudes[:, src][:, on]
     return dataclasses.replace(nominal, acs_edges=new_edges, acs_magnitudes=mags)
+
+
+def nga_level(realisation, base_sigma: float, windows: tuple[FaultWindow, ...]):
+    """The realisation with its NGA continued at the ``nga-level`` windows' sigmas.
+
+    A batch takes the sigma of the window active at its start (the last listed wins where
+    windows overlap), ``base_sigma`` elsewhere: the change happens at the first NGA batch edge at
+    or after the onset. The NGA normals are kept (see :mod:`sim.faults.config`)."""
+    if realisation.nga_edges is None:
+        raise ValueError("an nga-level fault needs the non-gravitational acceleration on (nga_sigma_km_s2 > 0)")
+    starts = realisation.nga_edges[:-1]
+    sigma = np.full(starts.size, float(base_sigma))
+    for w in windows:
+        if w.config.type == "nga-level":
+            sigma[w.active(starts)] = w.config.sigma_km_s2
+    return realisation.with_nga_sigma(sigma)
 
 
 def fault_events(windows: tuple[FaultWindow, ...], t_end: float) -> list[FaultEvent]:

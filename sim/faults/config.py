@@ -14,7 +14,16 @@ type                   magnitude fields                       anomaly class
 ``thruster-mismodel``  ``bias_sigma_factor``,                 dynamics
                        ``daily_sigma_factor``
 ``thruster-scale``     ``scale``                              dynamics
+``nga-level``          ``sigma_km_s2``                        dynamics
 =====================  =====================================  ===========================
+
+``nga-level`` changes the steady-state sigma of the truth's non-gravitational acceleration
+(seed 000 §V: 0.7e-12 -> 7.0e-12 km/s^2 half-way through the cruise). The ECRV is not
+restarted: from the first NGA batch edge at or after the onset it continues the same random
+sequence by eq. 25 with q = sigma_new^2 (1 - exp(-2 dt/tau)) (eq. 26 with the new sigma), so
+its variance relaxes from the old to the new steady state with time constant tau/2, as a
+physical process whose driving noise changes would. It needs the NGA on
+(``forces.nga_sigma_km_s2`` > 0) so there is a process to change.
 
 Sign conventions. Biases are *added* to what the instrument reports: ``range_m`` to the range,
 ``sample_px``/``line_px`` to the centroid. A Doppler bias is a bias of the received frequency
@@ -33,10 +42,10 @@ from typing import Literal
 from fsw.interface.typed import spec
 
 FaultType = Literal[
-    "optical-bias", "range-bias", "doppler-bias", "clock-bias", "thruster-mismodel", "thruster-scale"
+    "optical-bias", "range-bias", "doppler-bias", "clock-bias", "thruster-mismodel", "thruster-scale", "nga-level"
 ]
 FAULT_TYPES: tuple[str, ...] = (
-    "optical-bias", "range-bias", "doppler-bias", "clock-bias", "thruster-mismodel", "thruster-scale"
+    "optical-bias", "range-bias", "doppler-bias", "clock-bias", "thruster-mismodel", "thruster-scale", "nga-level"
 )
 
 #: The anomaly class a perfect diagnosis would give for each fault type (ICD ``AnomalyClass``).
@@ -47,6 +56,7 @@ FAULT_CLASS: dict[str, str] = {
     "clock-bias": "radiometric-measurement",
     "thruster-mismodel": "dynamics",
     "thruster-scale": "dynamics",
+    "nga-level": "dynamics",
 }
 
 #: Magnitude fields each type requires (clock-bias: at least one of the two).
@@ -57,11 +67,12 @@ REQUIRED: dict[str, tuple[str, ...]] = {
     "clock-bias": (),
     "thruster-mismodel": ("bias_sigma_factor", "daily_sigma_factor"),
     "thruster-scale": ("scale",),
+    "nga-level": ("sigma_km_s2",),
 }
 ALLOWED: dict[str, tuple[str, ...]] = {**REQUIRED, "clock-bias": ("phase_s", "frequency")}
 MAGNITUDE_FIELDS: tuple[str, ...] = (
     "sample_px", "line_px", "range_m", "doppler_mhz", "phase_s", "frequency",
-    "bias_sigma_factor", "daily_sigma_factor", "scale",
+    "bias_sigma_factor", "daily_sigma_factor", "scale", "sigma_km_s2",
 )
 
 
@@ -86,6 +97,10 @@ class FaultConfig:
         None, doc="thruster-mismodel: daily magnitude variation sigma, in units of the nominal ACS level", unit="1", ge=0.0
     )
     scale: float | None = spec(None, doc="thruster-scale: factor on the ACS acceleration magnitude", unit="1", ge=0.0)
+    sigma_km_s2: float | None = spec(
+        None, doc="nga-level: new steady-state 1-sigma of the non-gravitational acceleration per axis",
+        unit="km/s^2", ge=0.0,
+    )
 
     def __post_init__(self) -> None:
         if self.type not in FAULT_TYPES:
@@ -108,7 +123,7 @@ class FaultConfig:
             raise ValueError(
                 f"a {self.type} fault takes {', '.join(ALLOWED[self.type])}; it does not take {', '.join(stray)}"
             )
-        for n in ("bias_sigma_factor", "daily_sigma_factor", "scale"):
+        for n in ("bias_sigma_factor", "daily_sigma_factor", "scale", "sigma_km_s2"):
             value = getattr(self, n)
             if value is not None and value < 0.0:
                 raise ValueError(f"{self.type}: {n} must be >= 0, got {value}")

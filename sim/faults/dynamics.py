@@ -1,25 +1,28 @@
 """Dynamics faults: the truth trajectory changes from the fault onset, and only from then.
 
-The nominal truth (``sim.trajectories.insight.build_truth_trajectory``) is built first. For
+The nominal truth (``sim.trajectories.design.build_truth_trajectory``) is built first. For
 thruster faults, the stochastic force realisation is redrawn from the *same* generator state
 with the faulted :class:`~sim.dynamics.config.ForceModelConfig` (so every thruster keeps its
 random bias and daily draws, scaled by the faulted sigmas), spliced into the nominal one inside
 the fault windows (:func:`sim.faults.apply.splice_acs`), and the trajectory is propagated
 forward from the nominal state at the first onset. Before the onset the faulted run *is* the
 nominal run, bit for bit. Where two thruster faults overlap in time, the one listed last sets
-the thruster magnitudes (they replace, they do not compound).
+the thruster magnitudes (they replace, they do not compound). An ``nga-level`` fault continues
+the nominal NGA random sequence with its new steady-state sigma (:func:`sim.faults.apply.nga_level`).
 """
 
 from __future__ import annotations
 
 from typing import Callable
 
+import dataclasses
+
 import numpy as np
 
 from sim.dynamics.config import ForceModelConfig, TrajectoryConfig
 from sim.dynamics.propagator import Trajectory, propagate
 from sim.dynamics.stochastic import StochasticRealisation
-from sim.faults.apply import FaultWindow, dynamics_windows, faulted_forces, splice_acs
+from sim.faults.apply import FaultWindow, dynamics_windows, faulted_forces, nga_level, splice_acs
 
 
 class SplicedTrajectory:
@@ -64,6 +67,9 @@ class SplicedTrajectory:
     def acs_accel(self, t):
         return self._apply("acs_accel", t)
 
+    def nga_accel(self, t):
+        return self._apply("nga_accel", t)
+
     def attitude(self, t):
         return self._apply("attitude", t)
 
@@ -88,17 +94,24 @@ def apply_dynamics_faults(
     if not dyn:
         return nominal
     t0, t1 = nominal.realisation.t0, nominal.realisation.t1
-    check = StochasticRealisation.draw(forces, t0, t1, same_generator())
-    if not (np.array_equal(check.acs_magnitudes, nominal.realisation.acs_magnitudes)
-            and np.array_equal(check.srp_scale, nominal.realisation.srp_scale)):
-        raise RuntimeError("the nominal truth was not drawn from the generator state given for the faults")
-    faulted = []
+    thrusters = tuple(w for w in dyn if w.config.type != "nga-level")
+    spliced = nominal.realisation
     f_forces = forces
-    for w in dyn:
-        f_forces_w = faulted_forces(forces, w)
-        faulted.append((w, StochasticRealisation.draw(f_forces_w, t0, t1, same_generator())))
-        f_forces = f_forces_w
-    spliced = splice_acs(nominal.realisation, faulted)
+    if thrusters:
+        # the thruster draws come from the trajectory generator; the NGA has its own stream
+        no_nga = dataclasses.replace(forces, nga_sigma_km_s2=0.0)
+        check = StochasticRealisation.draw(no_nga, t0, t1, same_generator())
+        if not (np.array_equal(check.acs_magnitudes, nominal.realisation.acs_magnitudes)
+                and np.array_equal(check.srp_scale, nominal.realisation.srp_scale)):
+            raise RuntimeError("the nominal truth was not drawn from the generator state given for the faults")
+        faulted = []
+        for w in thrusters:
+            f_forces_w = faulted_forces(no_nga, w)
+            faulted.append((w, StochasticRealisation.draw(f_forces_w, t0, t1, same_generator())))
+            f_forces = faulted_forces(forces, w)
+        spliced = splice_acs(spliced, faulted)
+    if any(w.config.type == "nga-level" for w in dyn):
+        spliced = nga_level(spliced, forces.nga_sigma_km_s2, dyn)
     t_on = max(min(w.t_on for w in dyn), nominal.t0)
     if t_on <= nominal.t0:
         x_on = nominal.state(nominal.t0)

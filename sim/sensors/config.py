@@ -18,13 +18,30 @@ each flown by the station (Goldstone, Canberra, Madrid) that sees the spacecraft
 the pass; range every 10 min and Doppler every 60 s while in a pass and above 10 deg; one
 image every 30 min cycling Mars, Phobos, Deimos (the next visible target if the scheduled one
 is not). Over 45 days: ~24,000 Doppler, ~2,400 range and ~2,100 optical measurements.
+
+Pass plan (``pass_plan``, replaces the daily schedule when given): each entry is one station
+with its own periodic passes, e.g. seed 000's Mars Pathfinder cruise tracking, one 4-hour pass
+a week per station, first passes on days 7 (DSS 15), 10 (DSS 45) and 12 (DSS 65). A pass on
+day d is centred on the spacecraft's highest elevation at that station during
+[start + d days, start + d + 1 days) (sampled every 10 min), so the station sees it.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from fsw.astro.stations import station
 from fsw.interface.typed import spec
+
+
+@dataclass(frozen=True, slots=True)
+class PassPlan:
+    """Periodic tracking passes of one station."""
+
+    station: str = spec(doc="DSN station (fsw.astro.stations name)")
+    first_day: float = spec(doc="day of the first pass, days since scenario start", unit="day", ge=0.0)
+    period_days: float = spec(7.0, doc="days between passes", unit="day", gt=0.0)
+    duration_h: float = spec(4.0, doc="length of each pass", unit="h", gt=0.0, le=24.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,10 +60,15 @@ class RadiometricConfig:
     doppler_count_s: float = spec(60.0, doc="Doppler count interval ending at the time tag", unit="s", gt=0.0)
     range_sigma_m: float = spec(1.0, doc="range noise 1-sigma", unit="m", gt=0.0)
     doppler_sigma_mm_s: float = spec(0.1, doc="Doppler noise 1-sigma as range rate at the count interval", unit="mm/s", gt=0.0)
+    pass_plan: tuple[PassPlan, ...] = spec(
+        (), doc="periodic passes per station; replaces the daily schedule (and the stations list) when given"
+    )
 
     def __post_init__(self) -> None:
         if not self.stations:
             raise ValueError("at least one station is needed")
+        for p in self.pass_plan:
+            station(p.station)  # rejects unknown names here rather than mid-run
         if self.passes_per_day and self.pass_duration_h * self.passes_per_day > 24.0:
             raise ValueError("passes overlap: passes_per_day x pass_duration_h exceeds 24 h")
 

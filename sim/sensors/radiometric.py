@@ -17,7 +17,9 @@ Observables (seed 001 §4.1: one-way radiometric data with a DSAC-class onboard 
 
 Elevation is that of the uplink at the station at the transmit time, towards the spacecraft's
 position at reception (geodetic horizon); both ends of a Doppler count must be above the
-minimum. The tracking schedule is described in :mod:`sim.sensors.config`.
+minimum. The tracking schedule is described in :mod:`sim.sensors.config`: either the daily
+passes, each flown by the station that sees the spacecraft best, or a pass plan of periodic
+passes per station, each centred on the spacecraft's transit at that station.
 
 Noise is drawn per *schedule slot* — every range/Doppler slot of every pass, before knowing
 which slots the geometry keeps — so the draws of a given slot never depend on the trajectory,
@@ -31,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsw.astro.constants import C_KM_S
-from fsw.astro.stations import elevation
+from fsw.astro.stations import elevation, station
 from sim.clock import ClockTruth
 from sim.sensors.config import RadiometricConfig
 from sim.sensors.geometry import Scene
@@ -72,17 +74,55 @@ class RadioData:
         return int(self.t_rx.size)
 
 
-def make_schedule(cfg: RadiometricConfig, t_start: float, t_end: float) -> RadioSchedule:
-    """Passes every 24 h / passes_per_day from ``t_start + first_pass_offset``; slots on exact grids."""
+_TRANSIT_GRID_S = 600.0
+
+
+def plan_passes(cfg: RadiometricConfig, scene: Scene, t_start: float, t_end: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(start, end, station) of every pass of ``cfg.pass_plan``, by start time.
+
+    The pass of day d is centred on the highest elevation of the spacecraft at the station over
+    [t_start + d days, t_start + d + 1 days), sampled on a 10-min grid, and clipped to the run."""
+    starts, ends, names = [], [], []
+    for p in cfg.pass_plan:
+        days = np.arange(p.first_day, (t_end - t_start) / 86400.0, p.period_days)
+        if days.size == 0:
+            continue
+        grid = np.arange(0.0, 86400.0, _TRANSIT_GRID_S)
+        t = (t_start + days[:, None] * 86400.0 + grid[None, :]).ravel()
+        inside = t <= t_end
+        el = np.full(t.size, -np.inf)
+        el[inside] = uplink(scene, p.station, t[inside])[1]
+        centre = t.reshape(days.size, grid.size)[np.arange(days.size), np.argmax(el.reshape(days.size, -1), axis=1)]
+        half = 0.5 * p.duration_h * 3600.0
+        a, b = np.maximum(centre - half, t_start), np.minimum(centre + half, t_end)
+        keep = b > a
+        starts.append(a[keep])
+        ends.append(b[keep])
+        names.append(np.full(int(keep.sum()), station(p.station).name, dtype=object))
+    if not starts:
+        return np.zeros(0), np.zeros(0), np.zeros(0, dtype=object)
+    ps, pe, st = np.concatenate(starts), np.concatenate(ends), np.concatenate(names)
+    order = np.argsort(ps, kind="stable")
+    return ps[order], pe[order], st[order]
+
+
+def make_schedule(cfg: RadiometricConfig, t_start: float, t_end: float,
+                  passes: tuple[np.ndarray, np.ndarray] | None = None) -> RadioSchedule:
+    """Passes every 24 h / passes_per_day from ``t_start + first_pass_offset`` (or the given
+    ``passes`` (start, end)); slots on exact grids from each pass start."""
     empty = np.zeros(0)
     empty_i = np.zeros(0, dtype=np.int64)
-    if cfg.passes_per_day == 0 or t_end <= t_start:
-        return RadioSchedule(empty, empty, empty, empty_i, empty, empty_i)
-    spacing = 86400.0 / cfg.passes_per_day
-    first = t_start + cfg.first_pass_offset_h * 3600.0
-    n = max(int(np.ceil((t_end - first) / spacing)), 0)
-    ps = first + spacing * np.arange(n)
-    pe = np.minimum(ps + cfg.pass_duration_h * 3600.0, t_end)
+    if passes is not None:
+        ps, pe = (np.asarray(v, dtype=float) for v in passes)
+    else:
+        if cfg.passes_per_day == 0 or t_end <= t_start:
+            return RadioSchedule(empty, empty, empty, empty_i, empty, empty_i)
+        spacing = 86400.0 / cfg.passes_per_day
+        first = t_start + cfg.first_pass_offset_h * 3600.0
+        n = max(int(np.ceil((t_end - first) / spacing)), 0)
+        ps = first + spacing * np.arange(n)
+        pe = np.minimum(ps + cfg.pass_duration_h * 3600.0, t_end)
     keep = pe > ps
     ps, pe = ps[keep], pe[keep]
 
@@ -141,16 +181,23 @@ def simulate_radiometric(
     ``rng`` is this sensor's own stream: it draws one range normal per range slot, then one
     Doppler normal per Doppler slot, always in that order and amount.
     """
-    sched = make_schedule(cfg, t_start, t_end)
+    if cfg.pass_plan:
+        ps, pe, stations = plan_passes(cfg, scene, t_start, t_end)
+        sched = make_schedule(cfg, t_start, t_end, (ps, pe))
+        names = tuple(dict.fromkeys(stations.tolist()))
+    else:
+        sched = make_schedule(cfg, t_start, t_end)
+        names = cfg.stations
     z_range = rng.standard_normal(sched.range_t.size)
     z_doppler = rng.standard_normal(sched.doppler_t.size)
-    stations = choose_stations(cfg, scene, sched)
+    if not cfg.pass_plan:
+        stations = choose_stations(cfg, scene, sched)
     min_el = np.radians(cfg.min_elevation_deg)
     sig_r = cfg.range_sigma_m * 1e-3
     sig_d = cfg.doppler_sigma_mm_s * 1e-6
     tc = cfg.doppler_count_s
     parts = []
-    for name in cfg.stations:
+    for name in names:
         r_idx = np.flatnonzero(stations[sched.range_pass] == name) if sched.range_t.size else np.zeros(0, int)
         d_idx = np.flatnonzero(stations[sched.doppler_pass] == name) if sched.doppler_t.size else np.zeros(0, int)
         if r_idx.size + d_idx.size == 0:

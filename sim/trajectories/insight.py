@@ -76,15 +76,17 @@ def insight_initial_state(
 
 
 def build_truth_trajectory(
-    cfg: TrajectoryConfig, forces: ForceModelConfig, rng: np.random.Generator | None
+    cfg: TrajectoryConfig, forces: ForceModelConfig, rng: np.random.Generator | None,
+    nga_rng: np.random.Generator | None = None,
 ) -> Trajectory:
     """The truth arc from the design initial state under one draw of the stochastic forces.
 
-    ``rng`` may be None only when ``forces`` has no dispersions.
+    ``rng`` may be None only when ``forces`` has no dispersions; ``nga_rng`` is needed only
+    with a non-gravitational acceleration.
     """
     t0, x0 = insight_initial_state(cfg, forces)
     t1 = t0 + cfg.span_days * SECONDS_PER_DAY
-    real = StochasticRealisation.draw(forces, t0, t1, rng)
+    real = StochasticRealisation.draw(forces, t0, t1, rng, nga_rng)
     table = make_table(t0, t1, cfg.ephemeris_step_s)
     return propagate(x0, t0, t1, forces, real, table, cfg.rtol, cfg.atol_km, cfg.atol_km_s)
 

@@ -60,15 +60,23 @@ class RunTask:
     detector_calibrated: bool
     span_days: float
     extract_weights: tuple[str, ...] = ()
+    monitors: dict[str, dict] = field(default_factory=dict)
 
     def payload(self) -> dict:
         """What the worker needs (plain data: pickles the same for a process pool and for dask)."""
         return {
             "id": self.id, "cell": self.cell.as_dict(), "seed": self.seed, "scenario": self.scenario,
             "fault_label": self.fault_label, "fault_class": self.fault_class,
-            "detector": {"network": self.detector_network, "calibrated": self.detector_calibrated},
+            "detector": self._detector(),
             "span_days": self.span_days, "extract_weights": list(self.extract_weights),
+            "monitors": self.monitors,
         }
+
+    def _detector(self) -> dict:
+        out: dict[str, Any] = {"network": self.detector_network, "calibrated": self.detector_calibrated}
+        if self.monitors:
+            out["monitors"] = list(self.monitors)
+        return out
 
 
 @dataclass
@@ -82,8 +90,7 @@ class CampaignPlan:
         t = next((t for t in self.tasks if t.cell == cell), None)
         if t is None:
             return {}
-        return {"fault_class": t.fault_class,
-                "detector": {"network": t.detector_network, "calibrated": t.detector_calibrated}}
+        return {"fault_class": t.fault_class, "detector": t._detector()}
 
     def to_json(self) -> dict:
         return {
@@ -93,10 +100,14 @@ class CampaignPlan:
         }
 
 
-def run_id(scenario_data: dict, seed: int) -> str:
+def run_id(scenario_data: dict, seed: int, monitors: dict | None = None) -> str:
     """Stable id of a run: the first 16 hex digits of SHA-256 over the canonical JSON of the
-    resolved scenario and the seed."""
-    blob = json.dumps({"scenario": scenario_data, "seed": int(seed)}, sort_keys=True, separators=(",", ":"))
+    resolved scenario and the seed (and the monitor calibrations, when there are any: they change
+    the run's summary, not its flight)."""
+    key: dict[str, Any] = {"scenario": scenario_data, "seed": int(seed)}
+    if monitors:
+        key["monitors"] = monitors
+    blob = json.dumps(key, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
@@ -137,6 +148,22 @@ def _load_base(loaded: LoadedCampaign, ref: str, where: str) -> ScenarioConfig:
     return load_scenario(ref)
 
 
+def _load_calibration(loaded: LoadedCampaign, ref: str) -> DetectorConfig:
+    cal_path = Path(ref)
+    return load_file(DetectorConfig, cal_path if cal_path.is_absolute() else loaded.base_dir / cal_path)
+
+
+def _monitors(var: NetworkVariant, loaded: LoadedCampaign, where: str) -> dict[str, DetectorConfig]:
+    out: dict[str, DetectorConfig] = {}
+    for net, ref in var.monitors.items():
+        cal = _load_calibration(loaded, ref)
+        if cal.network != net:
+            raise loaded.error(f"{where}.monitors.{net}", f"a calibration of network {net!r}",
+                               f"{ref} calibrates {cal.network!r}")
+        out[net] = cal
+    return out
+
+
 def _apply_variant(data: dict, var: NetworkVariant, loaded: LoadedCampaign, where: str) -> None:
     fsw = data["fsw"]
     if var.gating:
@@ -149,9 +176,7 @@ def _apply_variant(data: dict, var: NetworkVariant, loaded: LoadedCampaign, wher
         entry.update(copy.deepcopy(changes))
     detector = var.detector
     if var.calibration is not None:
-        cal_path = Path(var.calibration)
-        cal_path = cal_path if cal_path.is_absolute() else loaded.base_dir / cal_path
-        cal = load_file(DetectorConfig, cal_path)
+        cal = _load_calibration(loaded, var.calibration)
         fsw["detector"]["calibration"] = typed.encode(cal)
         if detector is None:
             detector = cal.network
@@ -159,6 +184,9 @@ def _apply_variant(data: dict, var: NetworkVariant, loaded: LoadedCampaign, wher
         if not any(g.get("network") == detector for g in fsw["gating"]):
             fsw["gating"].append({"network": detector})
         fsw["detector"]["network"] = detector
+    for net in var.monitors:  # a monitor replays its network's weights: the network must run
+        if not any(g.get("network") == net for g in fsw["gating"]):
+            fsw["gating"].append({"network": net})
     merge(data, var.overrides)
 
 
@@ -216,6 +244,7 @@ def expand(loaded: LoadedCampaign, extract_weights: tuple[str, ...] | str = ()) 
                     except ValueError as exc:
                         raise loaded.error("overrides", "dotted scenario keys", str(exc)) from None
                     _apply_variant(data, var, loaded, f"matrix[{bi}].networks[{vi}]")
+                    monitors = _monitors(var, loaded, f"matrix[{bi}].networks[{vi}]")
                     for net in keep:  # a kept history needs its network to run
                         if not any(g.get("network") == net for g in data["fsw"]["gating"]):
                             data["fsw"]["gating"].append({"network": net})
@@ -233,12 +262,19 @@ def expand(loaded: LoadedCampaign, extract_weights: tuple[str, ...] | str = ()) 
                     calibrated = det.calibration is not None
                     final = typed.encode(scen)
                     fault_class = scen.sim.faults[0].fault_class if scen.sim.faults else "none"
+                    bank = sorted(f.name for f in scen.fsw.bank.filters)
+                    for net, mcal in monitors.items():
+                        if sorted(mcal.filters) != bank:
+                            raise loaded.error(f"matrix[{bi}].networks[{vi}].monitors.{net}",
+                                               f"a calibration for the bank {bank} of cell {cell.key}",
+                                               f"filters {list(mcal.filters)}")
+                    monitor_data = {net: typed.encode(mcal) for net, mcal in monitors.items()}
                     if cell in cells:
                         raise loaded.error(f"matrix[{bi}]", "distinct cell labels (scenario names, fault "
                                            "cases, variants)", f"cell {cell.key!r} twice")
                     cells.append(cell)
                     for seed in cfg.seeds.seeds():
-                        rid = run_id(final, seed)
+                        rid = run_id(final, seed, monitor_data)
                         if rid in seen:
                             raise loaded.error(f"matrix[{bi}]", "cells that differ in configuration",
                                                f"cells {seen[rid].key!r} and {cell.key!r} are the same runs")
@@ -248,6 +284,6 @@ def expand(loaded: LoadedCampaign, extract_weights: tuple[str, ...] | str = ()) 
                             fault_label=case.preset if case.preset is not None else case.label,
                             fault_class=fault_class, detector_network=det.network,
                             detector_calibrated=calibrated, span_days=scen.sim.trajectory.span_days,
-                            extract_weights=keep,
+                            extract_weights=keep, monitors=monitor_data,
                         ))
     return CampaignPlan(cfg.name, cfg.description, tasks, cells)

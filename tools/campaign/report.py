@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+NOMINAL = "none"
+
 
 def _pct(x: float | None) -> str:
     return "n/a" if x is None else f"{100.0 * x:.1f} %"
@@ -29,6 +31,67 @@ def _binom(b: dict | None) -> str:
     if not b or b.get("n", 0) == 0:
         return "n/a"
     return f"{b['k']}/{b['n']} = {_pct(b['rate'])}{_ci(b['ci'])}"
+
+
+def _short_binom(b: dict | None) -> str:
+    if not b or b.get("n", 0) == 0:
+        return "n/a"
+    return f"{b['k']}/{b['n']} {_pct(b['rate'])}{_ci(b['ci'], 100.0, '{:.0f}')}"
+
+
+def _side_by_side(cells: list[dict]) -> list[str]:
+    """Per scenario and variant with several detectors (monitors): one table, fault cases down,
+    detectors across, so the networks read side by side."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for c in cells:
+        if "base_variant" in c:
+            groups.setdefault((c["scenario"], c["base_variant"]), []).append(c)
+    lines: list[str] = []
+    for (scenario, variant), group in groups.items():
+        nets: list[str] = []
+        for c in group:
+            label = c["variant"].removeprefix(f"{variant} / ")
+            if label not in nets:
+                nets.append(label)
+        faults: list[str] = []
+        for c in group:
+            if c["fault"] not in faults:
+                faults.append(c["fault"])
+        by = {(c["fault"], c["variant"].removeprefix(f"{variant} / ")): c for c in group}
+        lines += [f"### {scenario} / {variant}: {', '.join(nets)}", "",
+                  "P_D for faulted cases, false alarms per run for the nominal case (k/n, rate, "
+                  "95 % interval); then latency median / p90 [h] and the correct-class rate among detections.", ""]
+
+        def cell_text(fault: str, net: str) -> str:
+            c = by.get((fault, net))
+            if c is None:
+                return "—"
+            if c["fault_class"] == NOMINAL:
+                fa = c.get("false_alarm") or {}
+                per_day = fa.get("per_day") or {}
+                day = "" if per_day.get("per_day") is None else f"; {per_day['per_day']:.3g}/day"
+                return "FA " + _short_binom(fa.get("per_run")) + day
+            return _short_binom(c.get("detection"))
+
+        def lat_text(fault: str, net: str) -> str:
+            c = by.get((fault, net))
+            lat = (c or {}).get("latency") or {}
+            if not lat:
+                return "—"
+            return f"{lat['median_h']:.1f} / {lat['p90_h']:.1f}"
+
+        def cls_text(fault: str, net: str) -> str:
+            c = by.get((fault, net))
+            return "—" if c is None or c["fault_class"] == NOMINAL else _short_binom(c.get("characterization"))
+
+        lines += _table(["fault", *nets], [[f, *[cell_text(f, n) for n in nets]] for f in faults])
+        faulted = [f for f in faults if any((by.get((f, n)) or {}).get("fault_class") != NOMINAL for n in nets)]
+        if faulted:
+            lines += ["latency median / p90 [h]:", ""]
+            lines += _table(["fault", *nets], [[f, *[lat_text(f, n) for n in nets]] for f in faulted])
+            lines += ["correct class among detections:", ""]
+            lines += _table(["fault", *nets], [[f, *[cls_text(f, n) for n in nets]] for f in faulted])
+    return lines
 
 
 def render(s: dict[str, Any]) -> str:
@@ -67,6 +130,10 @@ def render(s: dict[str, Any]) -> str:
         ])
     lines += _table(hdr, rows)
 
+    side = _side_by_side(s["cells"])
+    if side:
+        lines += ["## Detectors side by side (one set of runs, several networks)", "", *side]
+
     if s.get("confusion"):
         lines += ["## Characterization (rows: injected class, columns: diagnosed class)", ""]
         for g in s["confusion"]:
@@ -93,7 +160,8 @@ def render(s: dict[str, Any]) -> str:
     for c in s["cells"]:
         labels += [x for x in c.get("position_error_rms_km", {}) if x not in labels]
     rows = []
-    for c in s["cells"]:
+    real_cells = [c for c in s["cells"] if not c.get("monitor")]  # a monitor cell repeats its runs
+    for c in real_cells:
         pe = c.get("position_error_rms_km", {})
         rows.append([c["key"], *["n/a" if not pe.get(x) else
                                  f"{pe[x]['mean']:.3g} / {pe[x]['median']:.3g} / {pe[x]['max']:.3g}" for x in labels]])
@@ -101,7 +169,7 @@ def render(s: dict[str, Any]) -> str:
 
     lines += ["## Budget and run time", ""]
     rows = []
-    for c in s["cells"]:
+    for c in real_cells:
         b = c.get("budget", {})
         w = c.get("wall_time_s") or {}
         rows.append([c["key"], _num(b.get("max_utilisation"), "{:.3f}"), str(b.get("overruns_total", 0)),
@@ -110,7 +178,12 @@ def render(s: dict[str, Any]) -> str:
     lines += _table(["cell", "max utilisation", "overruns", "runs with overruns", "max final backlog",
                      "wall time mean [s]", "wall time max [s]"], rows)
 
-    failures = [(c["key"], f) for c in s["cells"] for f in c.get("failed", [])]
+    failures, seen_failed = [], set()
+    for c in s["cells"]:  # a failed run appears once, under its first detector
+        for f in c.get("failed", []):
+            if f["id"] not in seen_failed:
+                failures.append((c["key"], f))
+            seen_failed.add(f["id"])
     if failures:
         lines += ["## Failed runs", ""]
         lines += _table(["cell", "seed", "id", "error"],

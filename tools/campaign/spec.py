@@ -25,6 +25,15 @@ A campaign file (YAML) is validated like a scenario file, so a mistake is one li
             detector: chi2
             params: {chi2: {sigma_w: 0.1}}
             calibration: detector-chi2.yaml   # a `navbank calibrate --out` file
+          - name: three-networks        # one run, three detectors: chi2 onboard, two replayed
+            detector: chi2
+            calibration: detector-chi2.yaml
+            monitors: {magill: detector-magill.yaml, chi2-two-sided: detector-chi2-two-sided.yaml}
+
+A monitor is a second (third, ...) anomaly detector on the same run: every gating network reads
+the same bank records and a detector is a pure function of its network's weight stream, so the
+statistics of several detectors come from one set of runs (each counts as its own detector
+variant, labelled ``<variant> / <network>``).
 
 Blocks exist because some fault cases only make sense with some banks (seed 001 Table 4 pairs
 each dynamics fault with its own six-filter bank).
@@ -107,6 +116,17 @@ class NetworkVariant:
         None, doc="detector calibration file (`navbank calibrate --out`), relative to the campaign file"
     )
     overrides: dict[str, Any] = spec(default_factory=dict, doc="scenario keys changed for this variant only")
+    monitors: dict[str, str] = spec(
+        default_factory=dict,
+        doc="more detectors evaluated on the same runs: gating network -> its calibration file (relative to the "
+        "campaign file); each network is added to the gating list with defaults if absent, and its weight "
+        "stream is replayed through its own detector after the run (summary.monitors.<network>)",
+    )
+
+    def __post_init__(self) -> None:
+        for net, cal in self.monitors.items():
+            if not net or not cal:
+                raise ValueError("a monitor needs a network name and a calibration file")
 
     @classmethod
     def _typed_decode(cls, data: Any, path: str) -> "NetworkVariant":

@@ -23,6 +23,14 @@ Per cell (scenario x fault case x network variant):
 * budget: the largest utilisation, overruns (total and runs with any), the largest final backlog;
 * wall time per run.
 
+Monitors: a variant with ``monitors`` evaluates several detectors on the same runs (the onboard one
+and one replayed per monitored network, ``summary["monitors"]``). Each counts as its own detector
+variant: the cell is split into one virtual cell per detector, labelled ``<variant> / <network>``
+(``… (replayed)`` for a monitor on the onboard detector's own network), whose rows carry that
+detector's anomaly block; every statistic above then comes out per network. The weights,
+position errors and budget of the runs are those of the real cell (kept on the onboard-detector
+cell only, so nothing is counted twice).
+
 Cells whose detector is not calibrated (the scenario has no ``fsw.detector.calibration`` for
 the detector network) cannot declare anything: their detection statistics are reported as n/a.
 """
@@ -87,6 +95,77 @@ def _cell_key(row: dict) -> str:
     return f"{c['scenario']} / {c['fault']} / {c['variant']}"
 
 
+def detector_label(variant: str, network: str, onboard: str | None) -> str:
+    """Label of one detector of a variant with monitors (a monitor on the onboard network is
+    marked, so the two never share a label)."""
+    return f"{variant} / {network}" + (" (replayed)" if network == onboard and onboard is not None else "")
+
+
+def monitored(detector: dict | None) -> list[str]:
+    return list((detector or {}).get("monitors") or [])
+
+
+def detector_rows(row: dict) -> list[dict]:
+    """One row per detector of the run: the row itself when its variant has no monitors; else a
+    row for the onboard detector and one per monitor, each with its own cell label, ``detector``
+    and ``summary["anomaly"]``. A monitor that could not be evaluated makes a failed row."""
+    det = row.get("detector") or {}
+    nets = monitored(det)
+    if not nets:
+        return [row]
+    onboard = det.get("network")
+    cell = row["cell"]
+    out = [{**row, "cell": {**cell, "variant": detector_label(cell["variant"], onboard, None)},
+            "base_variant": cell["variant"], "monitor": False}]
+    summary = row.get("summary") if row.get("status") == "ok" else None
+    for net in nets:
+        vrow = {**row, "cell": {**cell, "variant": detector_label(cell["variant"], net, onboard)},
+                "detector": {"network": net, "calibrated": True}, "base_variant": cell["variant"], "monitor": True}
+        if summary:
+            mon = (summary.get("monitors") or {}).get(net)
+            if mon is None or "error" in mon:
+                err = (mon or {}).get("error") or {"type": "MissingMonitor", "message": f"no monitor result for {net}"}
+                vrow.update({"status": "failed", "error": err, "summary": None})
+            else:
+                vrow["summary"] = {**summary, "anomaly": mon}
+        out.append(vrow)
+    return out
+
+
+def _expand_cells(cell_order: list[str], cell_info: dict[str, dict], rows_by_cell: dict[str, list[dict]],
+                  planned_by_cell: dict[str, int]) -> list[str]:
+    """Split every cell whose variant has monitors into one virtual cell per detector (in place
+    in the dictionaries; returns the new cell order)."""
+    order: list[str] = []
+    for key in cell_order:
+        info = cell_info[key]
+        rows = rows_by_cell.get(key, [])
+        nets = monitored(info.get("detector")) or next((monitored(r.get("detector")) for r in rows
+                                                        if monitored(r.get("detector"))), [])
+        if not nets:
+            order.append(key)
+            continue
+        onboard = (info.get("detector") or (rows[0].get("detector") if rows else {}) or {}).get("network")
+        split: dict[str, list[dict]] = defaultdict(list)
+        for r in rows:
+            for v in detector_rows(r):
+                split[_cell_key(v)].append(v)
+        variant = info.get("variant") or rows[0]["cell"]["variant"]
+        for net, is_monitor in [(onboard, False)] + [(n, True) for n in nets]:
+            label = detector_label(variant, net, onboard if is_monitor else None)
+            vkey = f"{info.get('scenario', rows[0]['cell']['scenario'] if rows else '')} / " \
+                   f"{info.get('fault', rows[0]['cell']['fault'] if rows else '')} / {label}"
+            cell_info[vkey] = {**info, "variant": label, "base_variant": variant, "monitor": is_monitor,
+                               "detector": {**(info.get("detector") or {}), "network": net,
+                                            "calibrated": True if is_monitor else
+                                            (info.get("detector") or {}).get("calibrated", True)}}
+            rows_by_cell[vkey] = split.get(vkey, [])
+            if key in planned_by_cell:
+                planned_by_cell[vkey] = planned_by_cell[key]
+            order.append(vkey)
+    return order
+
+
 def _diagnosed(summary: dict) -> str:
     a = summary["anomaly"]
     return (a.get("class") or "unknown") if a.get("declared") else NOMINAL
@@ -97,10 +176,12 @@ def _cell_stats(key: str, cell: dict, rows: list[dict], planned: int | None, lev
     failed = [r for r in rows if r.get("status") != "ok"]
     fault_class = rows[0].get("fault_class", NOMINAL) if rows else cell.pop("fault_class", NOMINAL)
     detector = rows[0].get("detector", {}) if rows else cell.pop("detector", {})
+    detector = {k: v for k, v in detector.items() if k != "monitors"}
+    extra = {k: cell[k] for k in ("base_variant", "monitor") if k in cell}
     cell = {k: cell[k] for k in ("scenario", "fault", "variant") if k in cell}
     calibrated = bool(detector.get("calibrated", True))
     out: dict[str, Any] = {
-        "key": key, **cell, "fault_class": fault_class, "detector": detector,
+        "key": key, **cell, **extra, "fault_class": fault_class, "detector": detector,
         "runs": {"planned": planned, "ok": len(ok), "failed": len(failed),
                  "missing": None if planned is None else max(planned - len(ok) - len(failed), 0)},
         "failed": [{"id": r["id"], "seed": r.get("seed"), "type": (r.get("error") or {}).get("type"),
@@ -150,7 +231,7 @@ def _cell_stats(key: str, cell: dict, rows: list[dict], planned: int | None, lev
         out["wall_time_s"]["total"] = float(sum(r["wall_time_s"] for r in rows if r.get("wall_time_s") is not None))
     weights: dict[str, Any] = {}
     nets: list[str] = []
-    for r in ok:
+    for r in ok if not extra.get("monitor") else ():  # the runs' weights belong to the real cell
         nets += [n for n in r["summary"].get("gating", {}) if n not in nets]
     for net in nets:
         entries = [r["summary"]["gating"][net] for r in ok if net in r["summary"].get("gating", {})]
@@ -194,9 +275,10 @@ def _confusion(cells: list[dict], rows_by_cell: dict[str, list[dict]]) -> list[d
 def _weight_tables(cells: list[dict]) -> list[dict]:
     tables: dict[tuple[str, str, str], dict] = {}
     for c in cells:
+        variant = c.get("base_variant", c["variant"])
         for net, w in c.get("weights", {}).items():
-            t = tables.setdefault((c["scenario"], c["variant"], net), {
-                "scenario": c["scenario"], "variant": c["variant"], "network": net, "filters": list(w["filters"]),
+            t = tables.setdefault((c["scenario"], variant, net), {
+                "scenario": c["scenario"], "variant": variant, "network": net, "filters": list(w["filters"]),
                 "rows": []})
             for f in w["filters"]:
                 if f not in t["filters"]:
@@ -221,6 +303,7 @@ def compute(rows: list[dict], plan: dict | None = None, *, level: float = LEVEL,
         for c in plan.get("cells", []):
             cell_order.append(c["key"])
             cell_info[c["key"]] = {k: c[k] for k in ("scenario", "fault", "variant", "fault_class", "detector") if k in c}
+            cell_info[c["key"]]["detector"] = dict(cell_info[c["key"]].get("detector") or {})
         for r in plan.get("runs", []):
             planned_by_cell[r["cell"]] += 1
     rows_by_cell: dict[str, list[dict]] = defaultdict(list)
@@ -232,9 +315,10 @@ def compute(rows: list[dict], plan: dict | None = None, *, level: float = LEVEL,
         if key not in cell_info:
             cell_order.append(key)
             cell_info[key] = dict(r["cell"])
+    counted = [r for rs in rows_by_cell.values() for r in rs]
+    cell_order = _expand_cells(cell_order, cell_info, rows_by_cell, planned_by_cell)
     cells = [_cell_stats(k, dict(cell_info[k]), sorted(rows_by_cell.get(k, []), key=lambda r: r.get("seed", 0)),
                          planned_by_cell.get(k) if plan else None, level) for k in cell_order]
-    counted = [r for rs in rows_by_cell.values() for r in rs]
     return {
         "campaign": (plan or {}).get("name") or (counted[0].get("campaign") if counted else None),
         "description": (plan or {}).get("description", ""),

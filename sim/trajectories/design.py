@@ -1,0 +1,46 @@
+"""The built-in trajectory a :class:`~sim.dynamics.config.TrajectoryConfig` selects (``kind``).
+
+One entry point per question the rest of the system asks: the arc's span, the design initial
+state (uplinked, with an a-priori error, to the flight software) and the truth arc.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fsw.astro.constants import SECONDS_PER_DAY
+from fsw.astro.time import utc_iso_to_tdb
+from sim.dynamics.config import ForceModelConfig, TrajectoryConfig
+from sim.dynamics.propagator import Trajectory
+from sim.trajectories import insight, pathfinder
+
+
+def arc_span(cfg: TrajectoryConfig) -> tuple[float, float]:
+    """(t_start, t_end) TDB of the simulated arc."""
+    if cfg.kind == "pathfinder-cruise":
+        return pathfinder.cruise_span(cfg)
+    if cfg.kind == "insight-approach":
+        t_end = utc_iso_to_tdb(cfg.entry_epoch_utc)
+        return t_end - cfg.span_days * SECONDS_PER_DAY, t_end
+    raise ValueError(f"unknown trajectory kind {cfg.kind!r}")
+
+
+def initial_state(cfg: TrajectoryConfig, forces: ForceModelConfig) -> tuple[float, np.ndarray]:
+    """(t0_tdb, Mars-centred ICRF state) of the design trajectory at the start of the arc."""
+    if cfg.kind == "pathfinder-cruise":
+        return pathfinder.pathfinder_initial_state(cfg, forces)
+    if cfg.kind == "insight-approach":
+        return insight.insight_initial_state(cfg, forces)
+    raise ValueError(f"unknown trajectory kind {cfg.kind!r}")
+
+
+def build_truth_trajectory(
+    cfg: TrajectoryConfig, forces: ForceModelConfig, rng: np.random.Generator | None,
+    nga_rng: np.random.Generator | None = None,
+) -> Trajectory:
+    """The truth arc under one draw of the stochastic forces (``nga_rng``: the NGA's own stream)."""
+    if cfg.kind == "pathfinder-cruise":
+        return pathfinder.build_truth_trajectory(cfg, forces, rng, nga_rng)
+    if cfg.kind == "insight-approach":
+        return insight.build_truth_trajectory(cfg, forces, rng, nga_rng)
+    raise ValueError(f"unknown trajectory kind {cfg.kind!r}")

@@ -1,0 +1,62 @@
+"""Seed 000 §V end to end: the pathfinder-cruise scenario flown in process, the hierarchical gates'
+selections before and after the mid-cruise change of the non-gravitational acceleration level."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fsw.astro.constants import SECONDS_PER_DAY
+from tools.scenario import load_scenario
+
+# seed 000 Table I: (bank, filter) -> (tau [days], sigma_nga [1e-12 km/s^2], sigma_n [mm/s])
+TABLE_I = {
+    (1, 1): (1.0, 0.07, 0.01), (1, 2): (7.0, 0.07, 0.01), (1, 3): (30.0, 0.07, 0.01),
+    (2, 1): (1.0, 0.7, 0.01), (2, 2): (7.0, 0.7, 0.01), (2, 3): (30.0, 0.7, 0.01),
+    (3, 1): (1.0, 7.0, 0.01), (3, 2): (7.0, 7.0, 0.01), (3, 3): (30.0, 7.0, 0.01),
+    (4, 1): (7.0, 0.7, 0.001), (4, 2): (7.0, 0.7, 0.05), (4, 3): (7.0, 0.7, 0.10),
+}
+
+
+def test_scenario_is_table_i():
+    cfg = load_scenario("pathfinder-cruise")
+    filters = {f.name: f for f in cfg.fsw.bank.filters}
+    assert len(filters) == 12
+    for (i, j), (tau, sig, sig_n) in TABLE_I.items():
+        f = filters[f"kf{j}_{i}"]
+        assert f.processes == ("doppler",)
+        assert f.accel.degree == 0 and f.accel.batch_length_s == 3600.0
+        assert f.accel.correlation_time_s == pytest.approx(tau * SECONDS_PER_DAY)
+        assert f.accel.sigma_km_s2 == pytest.approx(sig * 1e-12)
+        assert f.sigma_scale["doppler"] * cfg.sim.radiometric.doppler_sigma_mm_s == pytest.approx(sig_n)
+    (gate,) = [g for g in cfg.fsw.gating if g.network == "hierarchical"]
+    assert gate.params.eta_top == gate.params.eta_bank == 1.0
+    assert {b: tuple(m) for b, m in gate.params.groups.items()} == {
+        f"bank{i}": tuple(f"kf{j}_{i}" for j in (1, 2, 3)) for i in (1, 2, 3, 4)}
+    sim = cfg.sim
+    assert sim.forces.nga_sigma_km_s2 == 0.7e-12 and sim.forces.nga_tau_days == 7.0
+    (fault,) = sim.faults
+    assert fault.type == "nga-level" and fault.sigma_km_s2 == 7.0e-12
+    assert fault.onset_day == pytest.approx(sim.trajectory.span_days / 2)
+    assert [(p.station, p.first_day, p.period_days, p.duration_h) for p in sim.radiometric.pass_plan] == [
+        ("DSS-15", 7.0, 7.0, 4.0), ("DSS-45", 10.0, 7.0, 4.0), ("DSS-65", 12.0, 7.0, 4.0)]
+    assert not sim.optical.enabled and not sim.radiometric.range_enabled
+
+
+@pytest.mark.slow
+def test_top_level_gate_moves_from_bank_2_to_bank_3():
+    from tools.inprocess import run_in_process
+    from tools.seed000_figure import gate_history, quarter_means
+
+    cfg = load_scenario("pathfinder-cruise")
+    res = run_in_process(cfg, keep_sim=True)
+    n = len(res.sim.measurements)
+    assert 1100 <= n <= 1350  # seed 000: 1,230 observations
+    (gate,) = [g for g in res.config.fsw.gating if g.network == "hierarchical"]
+    h = gate_history(res.messages, dict(gate.params.groups))
+    assert h.t.size == n
+    np.testing.assert_allclose(h.top.sum(axis=1), 1.0, rtol=1e-9)
+    q = quarter_means(h, res.sim.t_start, res.sim.t_end)
+    second, last = q[1], q[3]
+    assert max(second, key=second.get) == "bank2", second
+    assert max(last, key=last.get) == "bank3", last
