@@ -1,0 +1,66 @@
+"""Seed 001's orderings on reduced versions of the validation campaigns (one seed per case), flown
+by `navbank campaign` itself. What is asserted is what docs/validation.md reports: the orderings
+that reproduce, and for those that do not, the documented behaviour that replaces them — so a
+change that makes a finding (not) reproduce fails here until the report is regenerated."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tools.campaign.spec import builtin_dir
+from tools.validation.claims import table3_claims, table4_claim
+from tools.validation.tables import means, ok_rows, weight_table
+
+pytestmark = pytest.mark.slow
+
+
+def _reduced(name: str, tmp_path: Path, drop_cases: tuple[str, ...] = ()) -> Path:
+    text = builtin_dir().joinpath(f"{name}.yaml").read_text(encoding="utf-8")
+    text = re.sub(r"seeds: \{count: \d+, base: 1\}", "seeds: {count: 1, base: 1}", text)
+    text = re.sub(r"keep_weights: \[.*\]\n", "", text)
+    for case in drop_cases:
+        text = "\n".join(line for line in text.splitlines() if f"name: {case}," not in line) + "\n"
+    path = tmp_path / f"{name}-reduced.yaml"
+    path.write_text(text, encoding="utf-8")
+    out = tmp_path / name
+    proc = subprocess.run([sys.executable, "-m", "tools.cli", "campaign", str(path), "--out", str(out),
+                           "--workers", "2", "--quiet"], capture_output=True, text=True, timeout=1500)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return out
+
+
+def test_table3_orderings(tmp_path):
+    rows = ok_rows(_reduced("seed001-table3", tmp_path))
+    assert len(rows) == 7
+    chi2 = means(weight_table(rows, "chi2"))
+    magill = means(weight_table(rows, "magill"))
+    claims = {c.key: c for c in table3_claims(chi2, magill)}
+    for key in ("no-bias", "small-radio", "medium-radio", "large-radio"):
+        assert claims[key].holds, claims[key]
+    # Documented non-reproductions (docs/validation.md, "Why the optical cases differ"): a bias
+    # present from day 0 is absorbed by the optical-only filter, so radio-only and optical-only
+    # share the weight and only the fused filter is penalised.
+    for size in ("medium", "large"):
+        row = chi2[f"{size} bias - optical"]
+        assert min(row, key=row.get) == "fused" and row["fused"] < 0.1, row
+        assert row["radio"] < 0.8 and row["optical"] > 0.3, row
+    small = chi2["small bias - optical"]
+    assert abs(small["radio"] - small["optical"]) < 0.05 and small["fused"] < small["radio"], small
+    # Magill prefers fused everywhere except the large optical bias, where the optical-only filter wins.
+    for case, row in magill.items():
+        expected = "optical" if case == "large bias - optical" else "fused"
+        assert max(row, key=row.get) == expected, (case, row)
+
+
+def test_table4_orderings(tmp_path):
+    rows = ok_rows(_reduced("seed001-table4", tmp_path, drop_cases=("no mis-modelling",)))
+    assert len(rows) == 2
+    for scen, case in (("insight-thrusters", "attitude thruster"), ("insight-process-noise", "process noise")):
+        row = weight_table(rows, "chi2", scenario=scen)[case].mean
+        claim = table4_claim(case, row)
+        assert claim.holds, claim

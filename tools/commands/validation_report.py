@@ -1,0 +1,50 @@
+"""``navbank validation-report``: write docs/validation.md — the papers' findings reproduced by navbank.
+
+Run the four built-in validation campaigns first (each resumes if interrupted), then this command:
+
+    navbank campaign seed001-table3 --out campaigns/seed001-table3
+    navbank campaign seed001-table4 --out campaigns/seed001-table4
+    navbank campaign detection-matrix --out campaigns/detection-matrix
+    navbank campaign overinflated --out campaigns/overinflated
+    navbank validation-report --campaigns campaigns --out docs
+
+It reads the campaigns' runs, draws their figures (``navbank report``), runs the seed 003
+tracking experiments (~15 s) and the seed 000 Pathfinder cruise (one in-process run, ~1 min), and
+writes OUT/validation.md with OUT/figures/. A campaign directory that is missing leaves its
+section out (the command says which). Exit codes: 0 written, 2 bad arguments or no matplotlib.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from ground.report.figure import PlottingUnavailable
+
+NAME = "validation-report"
+HELP = "write the validation report (papers' findings vs navbank) from the validation campaigns"
+DESCRIPTION = __doc__.split("\n", 2)[2] if __doc__ else HELP
+
+
+def add_arguments(p) -> None:
+    p.add_argument("--campaigns", metavar="DIR", default="campaigns",
+                   help="directory holding the campaign directories (default ./campaigns)")
+    p.add_argument("--out", metavar="DIR", default="docs", help="where validation.md and figures/ go (default ./docs)")
+    p.add_argument("--no-cruise", action="store_true", help="leave out the seed 000 cruise run")
+
+
+def run(args) -> int:
+    from tools.validation.document import CAMPAIGNS, build
+
+    camp = Path(args.campaigns)
+    missing = [n for n in CAMPAIGNS if not (camp / n / "runs.jsonl").is_file()]
+    for n in missing:
+        print(f"navbank validation-report: no campaign {camp / n} (run: navbank campaign {n} --out {camp / n}); "
+              "its section is left out", file=sys.stderr)
+    try:
+        path = build(camp, Path(args.out), cruise=not args.no_cruise)
+    except PlottingUnavailable as exc:
+        print(f"navbank validation-report: {exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {path}")
+    return 0

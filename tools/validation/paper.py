@@ -1,0 +1,40 @@
+"""The papers' published numbers the validation report compares against, verbatim from seed 001
+Tables 3 and 4, seed 003 §V and seed 000 §V / Table I."""
+
+from __future__ import annotations
+
+#: Seed 001 Table 3: average chi-square gating weights over the full arc (radio, optical, fused).
+TABLE3_CHI2: dict[str, tuple[float, float, float]] = {
+    "no bias": (0.3354, 0.3272, 0.3374),
+    "small bias - optical": (0.4186, 0.2923, 0.2891),
+    "medium bias - optical": (0.9008, 0.0638, 0.0354),
+    "large bias - optical": (0.9679, 0.0316, 0.0004),
+    "small bias - radio": (0.3354, 0.3272, 0.3374),
+    "medium bias - radio": (0.3350, 0.3280, 0.3370),
+    "large bias - radio": (0.3047, 0.3899, 0.3054),
+}
+TABLE3_FILTERS = ("radio", "optical", "fused")
+
+#: Seed 001 Table 4: average chi-square gating weights of the six-filter banks.
+TABLE4_FILTERS = ("radio", "optical", "fused", "radio-Q", "optical-Q", "fused-Q")
+TABLE4_CHI2: dict[str, tuple[float, ...]] = {
+    "attitude thruster": (0.0844, 0.2510, 0.0815, 0.1658, 0.2520, 0.1653),
+    "process noise": (0.0961, 0.1992, 0.0742, 0.1945, 0.2431, 0.1929),
+}
+
+#: Seed 003 §V: measurement after which the gate / Magill switch at the first Experiment 3 change
+#: (the change is after measurement 100), and after which the product form underflows.
+SEED003_SWITCH = {"gate": 103, "magill": 110}
+SEED003_UNDERFLOW = 168
+
+#: Seed 000 §V, Table I: the hierarchical bank (bank -> filters as (tau_nga days, sigma_nga km/s^2,
+#: sigma_n mm/s)) and the NGA level change.
+SEED000_TABLE_I = {
+    1: ((1.0, 0.07e-12, 0.01), (7.0, 0.07e-12, 0.01), (30.0, 0.07e-12, 0.01)),
+    2: ((1.0, 0.7e-12, 0.01), (7.0, 0.7e-12, 0.01), (30.0, 0.7e-12, 0.01)),
+    3: ((1.0, 7.0e-12, 0.01), (7.0, 7.0e-12, 0.01), (30.0, 7.0e-12, 0.01)),
+    4: ((7.0, 0.7e-12, 0.001), (7.0, 0.7e-12, 0.05), (7.0, 0.7e-12, 0.10)),
+}
+SEED000_NGA_SIGMA = (0.7e-12, 7.0e-12)
+SEED000_NGA_TAU_DAYS = 7.0
+SEED000_OBSERVATIONS = 1230
