@@ -194,7 +194,8 @@ def short_run():
     cal = DetectorConfig(network="chi2", filters=FILTERS, nominal_mean=(1 / 3,) * 3,
                          nominal_cov=((s2, 0, 0), (0, s2, 0), (0, 0, s2)), threshold=4.0, clear_threshold=2.0,
                          onset_reference=1.0, persistence_k=2, persistence_n=3, hold=3)
-    fsw = dc.replace(cfg.fsw, gating=(GatingEntry.of("chi2", batch_size=100), GatingEntry.of("magill")),
+    banks = GatingEntry.of("hierarchical", groups={"radiometric": ("radio",), "imaging": ("optical", "fused")})
+    fsw = dc.replace(cfg.fsw, gating=(GatingEntry.of("chi2", batch_size=100), GatingEntry.of("magill"), banks),
                      detector=dc.replace(cfg.fsw.detector, calibration=cal))
     return run_in_process(dc.replace(cfg, fsw=fsw), 5)
 
@@ -220,6 +221,7 @@ def test_report_of_a_recorded_run_directory(short_run, tmp_path):
 
     from ground.mcap_io import McapRecorder
     from ground.report.build import report
+    from tools.scenario import to_yaml
 
     run_dir = tmp_path / "run"
     run_dir.mkdir()
@@ -227,11 +229,14 @@ def test_report_of_a_recorded_run_directory(short_run, tmp_path):
         for i, (topic, msg) in enumerate(short_run.messages):
             rec.write_message(topic, msg, log_time_ns=1_700_000_000_000_000_000 + 1000 * i)
     (run_dir / "summary.json").write_text(json.dumps(short_run.summary, default=str))
+    (run_dir / "config.yaml").write_text(to_yaml(short_run.config))
     paths = report(run_dir)
     assert all(p.parent == run_dir / "report" for p in paths)
     names = {p.name for p in paths}
-    assert {"weights_chi2.png", "weights_magill.png", "position_error_fused.png", "clock_phase_fused.png",
-            "anomaly_statistic.png", "budget.png", "measurements.png", "report.md"} <= names
+    assert {"weights_chi2.png", "weights_magill.png", "weights_hierarchical.png", "hierarchy_hierarchical.png",
+            "position_error_fused.png", "clock_phase_fused.png", "anomaly_statistic.png", "budget.png",
+            "measurements.png", "report.md"} <= names
+    assert "hierarchy_chi2.png" not in names
     assert "clock_phase_optical.png" not in names  # the optical-only filter has no clock state
     for p in paths:
         if p.suffix == ".png":
@@ -239,3 +244,6 @@ def test_report_of_a_recorded_run_directory(short_run, tmp_path):
             png_size(p)
     md = (run_dir / "report" / "report.md").read_text()
     assert "Numbers from summary.json" in md and "| scenario | insight-approach |" in md
+    assert "## Hierarchical gating 'hierarchical': mean bank weights" in md and "Banks: the run's configuration." in md
+    # the one-filter bank's in-bank weight is 1 by construction, whatever the run did
+    assert "| radiometric | radio |" in md and "radio 1.00" in md

@@ -46,17 +46,21 @@ def test_scenario_is_table_i():
 @pytest.mark.slow
 def test_top_level_gate_moves_from_bank_2_to_bank_3():
     from tools.inprocess import run_in_process
-    from tools.seed000_figure import gate_history, quarter_means
+    from tools.validation.seed000 import analyse
 
     cfg = load_scenario("pathfinder-cruise")
     res = run_in_process(cfg, keep_sim=True)
     n = len(res.sim.measurements)
     assert 1100 <= n <= 1350  # seed 000: 1,230 observations
-    (gate,) = [g for g in res.config.fsw.gating if g.network == "hierarchical"]
-    h = gate_history(res.messages, dict(gate.params.groups))
-    assert h.t.size == n
-    np.testing.assert_allclose(h.top.sum(axis=1), 1.0, rtol=1e-9)
-    q = quarter_means(h, res.sim.t_start, res.sim.t_end)
-    second, last = q[1], q[3]
-    assert max(second, key=second.get) == "bank2", second
-    assert max(last, key=last.get) == "bank3", last
+    r = analyse(res)
+    assert r.t_day.size == n
+    np.testing.assert_allclose(r.top.sum(axis=1), 1.0, rtol=1e-9)
+    # second quarter (before the change) and last quarter (after it)
+    assert max(r.top_mean_before, key=r.top_mean_before.get) == "bank2", r.top_mean_before
+    assert max(r.top_mean_after, key=r.top_mean_after.get) == "bank3", r.top_mean_after
+    assert r.top_mean_before["bank2"] > 0.9 and r.top_mean_after["bank3"] > 0.9
+    # bank 3 takes over for good within two weeks of the change
+    assert r.overtake_day is not None and r.change_day < r.overtake_day < r.change_day + 14
+    # in-bank, after the change: bank 2 moves to the short time constant (KF 1|2), bank 3 picks KF 2|3
+    assert max(r.in_bank_after["bank2"], key=r.in_bank_after["bank2"].get) == "kf1_2"
+    assert max(r.in_bank_after["bank3"], key=r.in_bank_after["bank3"].get) == "kf2_3"

@@ -7,7 +7,7 @@ A run directory holds ``run.mcap`` and usually ``summary.json``; a campaign dire
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -16,12 +16,13 @@ from ground.report import campaign_data as C
 from ground.report.campaign_plots import write_campaign_figures
 from ground.report.figure import figure_class
 from ground.report.markdown import campaign_markdown, run_markdown, write_markdown
-from ground.report.run_data import extract
+from ground.report.run_data import extract, hierarchy_groups_from_config
 from ground.report.run_facts import run_facts
 from ground.report.run_plots import write_run_figures
 
 RUN_MCAP = "run.mcap"
 RUN_SUMMARY = "summary.json"
+RUN_CONFIG = "config.yaml"  # the run's complete scenario, also attached to run.mcap
 REPORT_DIR = "report"
 
 
@@ -59,16 +60,38 @@ def classify(path: str | Path) -> ReportInput:
 
 
 def report_run_messages(messages: Iterable[Any], out_dir: str | Path, *, summary: dict | None = None,
-                        source: str = "in-memory run", t0: float | None = None) -> list[Path]:
-    """Figures and report.md of a run given as ``(topic, message)`` pairs; returns the paths written."""
+                        source: str = "in-memory run", t0: float | None = None,
+                        groups: Mapping[str, Mapping[str, Sequence[str]]] | None = None) -> list[Path]:
+    """Figures and report.md of a run given as ``(topic, message)`` pairs; returns the paths written.
+    ``groups``: the banks of its hierarchical gating networks (network -> bank -> filters)."""
     figure_class()  # fail before reading anything if matplotlib is missing
     out = Path(out_dir)
-    data = extract(messages, t0=t0)
+    data = extract(messages, t0=t0, groups=groups)
     figures = write_run_figures(data, out)
     facts = summary if summary is not None else run_facts(data)
     facts_from = "summary.json" if summary is not None else "the recorded messages"
-    md = write_markdown(run_markdown(facts, figures, out, source=source, facts_from=facts_from), out)
+    md = write_markdown(run_markdown(facts, figures, out, source=source, facts_from=facts_from, data=data), out)
     return figures + [md]
+
+
+def run_config_groups(mcap_path: str | Path) -> dict[str, dict[str, tuple[str, ...]]]:
+    """Banks of the run's hierarchical gating networks: from ``config.yaml`` beside the MCAP file
+    (when it belongs to it, as for summary.json), else from the file's config.yaml attachment;
+    empty when neither is readable."""
+    p = Path(mcap_path)
+    beside = p.parent / RUN_CONFIG
+    if beside.is_file() and (p.name == RUN_MCAP or not (p.parent / RUN_MCAP).exists()):
+        try:
+            return hierarchy_groups_from_config(beside.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError):
+            pass
+    from ground.mcap_io.reader import read_attachments
+
+    try:
+        _, data = read_attachments(p).get(RUN_CONFIG, ("", b""))
+        return hierarchy_groups_from_config(data.decode("utf-8")) if data else {}
+    except (OSError, ValueError):  # a damaged file: the weights alone then tell the banks
+        return {}
 
 
 def report_run(mcap_path: str | Path, out_dir: str | Path, *, summary_path: str | Path | None = None) -> list[Path]:
@@ -84,7 +107,8 @@ def report_run(mcap_path: str | Path, out_dir: str | Path, *, summary_path: str 
             summary = None  # fall back to the facts in the messages
         if not isinstance(summary, dict):
             summary = None
-    return report_run_messages(read_messages(mcap_path, strict=False), out_dir, summary=summary, source=Path(mcap_path).name)
+    return report_run_messages(read_messages(mcap_path, strict=False), out_dir, summary=summary, source=Path(mcap_path).name,
+                               groups=run_config_groups(mcap_path))
 
 
 def report_campaign(campaign_dir: str | Path, out_dir: str | Path) -> list[Path]:

@@ -3,7 +3,8 @@
 A run's table comes from its ``summary.json`` when one sits next to the MCAP file (the numbers
 ``navbank run`` printed), otherwise from :func:`ground.report.run_facts.run_facts` on the
 messages. Missing entries are shown as "–", never an error: a summary from an older or partial
-run still renders.
+run still renders. Hierarchical gating networks get a table of their mean bank weights before and
+after the first fault onset, computed from the messages (a summary does not carry them).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ground.report import campaign_data as C
+from ground.report.run_data import DAY_S, RunData, hierarchy_means
 
 REPORT_FILE = "report.md"
 DASH = "–"
@@ -51,6 +53,7 @@ def _figures(paths: Sequence[Path], out_dir: Path, captions: dict[str, str]) -> 
 
 RUN_CAPTIONS = {
     "weights_": "Gating-network weights",
+    "hierarchy_": "Hierarchical gating: bank and in-bank weights",
     "position_error_all": "Position error, all filters",
     "position_error_": "Position error vs RTPC",
     "clock_phase_": "Clock phase error",
@@ -68,8 +71,42 @@ CAMPAIGN_CAPTIONS = {
 }
 
 
-def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source: str, facts_from: str) -> str:
-    """Markdown text of a run report."""
+def _hierarchy_lines(data: RunData) -> list[str]:
+    """Mean top-level (and in-bank) weights of each hierarchical network before / after the first fault onset."""
+    lines: list[str] = []
+    onset = data.onset_s
+    for net, h in data.hierarchy.items():
+        mean = hierarchy_means(h, onset)
+        n = mean["updates"]
+        origin = {"given": "the run's configuration", "inferred": "inferred from the weights",
+                  "unknown": "unknown (no configuration and the weights do not fix them)"}[h.groups_from]
+        lines += [f"## Hierarchical gating '{net}': mean bank weights", ""]
+        if onset is None:
+            lines += [f"No fault injected: means over all {n['all']} weight updates. Banks: {origin}.", ""]
+            spans = ["all"]
+            header = ["bank", "filters", "mean bank weight g_i", "mean in-bank weights"]
+        else:
+            day = (onset - data.t0) / DAY_S
+            lines += [f"Means over the {n['before']} weight updates before the first fault onset (day {day:.2f}) "
+                      f"and the {n['after']} from it on. Banks: {origin}.", ""]
+            spans = ["before", "after"]
+            header = ["bank", "filters", "g_i before onset", "g_i after onset", "in-bank weights before onset",
+                      "in-bank weights after onset"]
+        rows = []
+        for b in h.banks:
+            members = h.members.get(b)
+            row = [b, ", ".join(members) if members else DASH]
+            row += [_num(mean[f"top_{k}"][b], ".3f") for k in spans]
+            row += [", ".join(f"{f} {_num(w, '.2f')}" for f, w in mean[f"in_bank_{k}"][b].items()) if b in h.in_bank else DASH
+                    for k in spans]
+            rows.append(row)
+        lines += _table(header, rows) + [""]
+    return lines
+
+
+def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source: str, facts_from: str,
+                 data: RunData | None = None) -> str:
+    """Markdown text of a run report; ``data`` (the extracted messages) adds the hierarchical gating tables."""
     s = facts
     lines = [f"# navbank run report: {source}", ""]
     fault = s.get("fault") or {}
@@ -117,6 +154,8 @@ def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source:
                 if key in g:
                     wrows.append([net, label] + [_num(g[key].get(f), ".3f") for f in filters])
         lines += _table(["network", "span"] + filters, wrows) + [""]
+    if data is not None:
+        lines += _hierarchy_lines(data)
     pos = s.get("position_error_rms_km") or {}
     if pos:
         fin = s.get("position_error_final_km") or {}

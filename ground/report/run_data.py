@@ -5,6 +5,11 @@ Input is any iterable of ``(topic, message)`` pairs — the in-process runner's 
 is). Topics may carry the MCAP leading slash. Messages that did not decode (raw bytes, plain
 JSON) or arrive on unknown topics are counted in :attr:`RunData.skipped`, never fatal.
 
+Hierarchical gating networks (seed 000) publish the top-level bank weights g_i in
+``FilterWeights.groups`` next to the products g_i·g_j|i; :func:`hierarchical_history` splits them
+back into both levels, with the bank membership from the run's configuration
+(:func:`hierarchy_groups_from_config`) or, without one, from the weights themselves.
+
 Every trace is sorted by epoch, because a complete MCAP file is read in receive-time order, not
 in simulated-time order. Position and clock errors compare an Estimate with the Truth of the same
 epoch (the FSW's hourly estimate grid is contained in the truth cadence), matched on ``t_s``
@@ -14,9 +19,9 @@ rounded to 1 ms, so no interpolation enters the error.
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -27,6 +32,8 @@ DAY_S = 86400.0
 MATCH_DECIMALS = 3
 #: Name of the onboard clock phase state in Estimate.state_names (seconds).
 CLOCK_PHASE_STATE = "clock_phase"
+#: Largest |Σ_{j in bank i} w_j − g_i| for a bank membership to describe the recorded weights.
+BANK_SUM_TOL = 1.0e-6
 
 
 @dataclass
@@ -64,6 +71,18 @@ class AnomalyTrace:
     reports: list[m.AnomalyReport] = field(default_factory=list)  # all of them, by epoch
 
 
+class HierarchicalHistory(NamedTuple):
+    """Both levels of a hierarchical gating network over time (seed 000 eqs. 2-3)."""
+
+    t_s: np.ndarray  # (K,) epochs of the weight updates, TDB s, ascending
+    banks: tuple[str, ...]  # B bank names
+    top: np.ndarray  # (K, B) top-level weights g_i; NaN where a message lacks the bank
+    in_bank: dict[str, np.ndarray]  # bank -> (K, n_b) in-bank weights g_j|i = w_ij / g_i (NaN if g_i = 0 or j absent)
+    members: dict[str, tuple[str, ...]]  # bank -> its filters, the columns of in_bank[bank]
+    network: str
+    groups_from: Literal["given", "inferred", "unknown"]  # where the membership came from; 'unknown': in_bank is empty
+
+
 @dataclass
 class BudgetTrace:
     """Frame executive telemetry."""
@@ -93,6 +112,7 @@ class RunData:
     run_id: str | None = None
     filters: tuple[str, ...] = ()  # bank order (from the weights, else the estimate topics)
     status: dict[str, m.RunStatus] = field(default_factory=dict)  # source -> last RunStatus
+    hierarchy: dict[str, HierarchicalHistory] = field(default_factory=dict)  # networks that publish bank weights
     skipped: int = 0
 
     def day(self, t_s: np.ndarray | float) -> np.ndarray | float:
@@ -152,6 +172,146 @@ def _weights(network: str, msgs: list[m.FilterWeights]) -> WeightTrace:
         W[k, [col[f] for f in w.filters]] = w.weights
     return WeightTrace(network=network, filters=tuple(names), t_s=np.array([w.t_s for w in msgs], dtype=float),
                        weights=W, batch=np.array([w.batch for w in msgs], dtype=int))
+
+
+def _weights_messages(source: Iterable[Any]) -> dict[str, list[m.FilterWeights]]:
+    """FilterWeights by network from bare messages or (topic, …, message) items."""
+    by: dict[str, list[m.FilterWeights]] = defaultdict(list)
+    for item in source:
+        if isinstance(item, m.FilterWeights):
+            by[item.network].append(item)
+            continue
+        if not isinstance(item, (tuple, list)) or len(item) < 2 or not isinstance(item[-1], m.FilterWeights):
+            continue
+        topic = str(item[0]).strip("/")
+        if topic.startswith(topics.FSW_WEIGHTS + "/"):
+            by[topic.split("/", 2)[2]].append(item[-1])
+    return by
+
+
+def _infer_groups(W: np.ndarray, top: np.ndarray, filters: Sequence[str], banks: Sequence[str]) -> dict[str, tuple[str, ...]] | None:
+    """The bank membership A (0/1, one bank per filter) with W·A = G, if the weights fix it uniquely.
+
+    W has full column rank only when the filters' weight histories are linearly independent;
+    then the least-squares A is the only membership, and rounding it must reproduce G."""
+    finite = np.all(np.isfinite(top), axis=1)
+    W, G = np.nan_to_num(W[finite]), top[finite]
+    if W.shape[0] < W.shape[1] or np.linalg.matrix_rank(W) < W.shape[1]:
+        return None
+    A = np.linalg.lstsq(W, G, rcond=None)[0]
+    bank = np.argmax(A, axis=1)
+    onehot = np.zeros_like(A)
+    onehot[np.arange(len(filters)), bank] = 1.0
+    if np.max(np.abs(A - onehot)) > 1e-3 or np.max(np.abs(W @ onehot - G)) > BANK_SUM_TOL:
+        return None
+    return {b: tuple(f for f, k in zip(filters, bank) if k == i) for i, b in enumerate(banks)}
+
+
+def hierarchical_history(messages_or_weights: Iterable[Any], groups: Mapping[str, Sequence[str]] | None = None, *,
+                         network: str | None = None) -> HierarchicalHistory:
+    """Top-level and in-bank weights of a hierarchical gating network over time (seed 000 eqs. 2-3).
+
+    ``messages_or_weights``: FilterWeights messages, or ``(topic, …, message)`` items as
+    :func:`extract` takes (other items are ignored). Only messages with non-empty ``groups`` count;
+    ``network`` picks one when several networks publish them.
+
+    The weight a hierarchical network publishes for filter j of bank i is w_ij = g_i·g_j|i, and
+    ``groups[bank]`` of the message is g_i, so the in-bank weight is g_j|i = w_ij / g_i. ``groups``
+    (bank -> filter names, e.g. ``fsw.gating[i].groups`` of the run's configuration) says which
+    filters make up each bank; it must name the recorded banks and reproduce them:
+    |Σ_{j in i} w_ij − g_i| ≤ :data:`BANK_SUM_TOL`. Without it (or when empty) the membership is
+    inferred from the weights when they determine it uniquely, else ``in_bank`` is left empty
+    (``groups_from == 'unknown'``) and only the top level is known.
+
+    Raises ValueError without hierarchical messages, when several networks qualify and
+    ``network`` is None, or when ``groups`` does not describe the recorded weights.
+    """
+    by = {net: ms for net, ms in _weights_messages(messages_or_weights).items() if any(w.groups for w in ms)}
+    if network is None:
+        if len(by) != 1:
+            raise ValueError("no hierarchical gating weights (FilterWeights with groups)" if not by
+                             else f"weights of several hierarchical networks {sorted(by)}: say which network")
+        network = next(iter(by))
+    if network not in by:
+        raise ValueError(f"no hierarchical gating weights of network {network!r}")
+    msgs = sorted((w for w in by[network] if w.groups), key=lambda x: (x.t_s, x.batch))
+    trace = _weights(network, msgs)
+    filters, W = trace.filters, trace.weights
+    banks = list(dict.fromkeys(b for w in msgs for b in w.groups))
+    given = {str(b): tuple(str(f) for f in fs) for b, fs in (groups or {}).items()}
+    if given:
+        if set(given) != set(banks):
+            raise ValueError(f"banks {sorted(given)} do not match the recorded banks {sorted(banks)}")
+        banks = list(given)
+        listed = [f for fs in given.values() for f in fs]
+        if len(set(listed)) != len(listed):
+            raise ValueError("a filter is listed in more than one bank")
+        unknown = sorted(set(listed) - set(filters))
+        if unknown:
+            raise ValueError(f"filters {unknown} of the banks never appear in the weights")
+    top = np.array([[w.groups.get(b, np.nan) for b in banks] for w in msgs], dtype=float).reshape(len(msgs), len(banks))
+    col = {f: i for i, f in enumerate(filters)}
+    if given:
+        sums = np.stack([np.nansum(W[:, [col[f] for f in given[b]]], axis=1) for b in banks], axis=1)
+        err = np.nanmax(np.abs(sums - top), initial=0.0)
+        if err > BANK_SUM_TOL:
+            raise ValueError(f"the banks do not reproduce the recorded bank weights (|Σ w − g| up to {err:.3g})")
+        members, source = given, "given"
+    else:
+        inferred = _infer_groups(W, top, filters, banks)
+        members, source = (inferred, "inferred") if inferred is not None else ({}, "unknown")
+    in_bank: dict[str, np.ndarray] = {}
+    for i, b in enumerate(banks):
+        if b not in members:
+            continue
+        g = top[:, [i]]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            in_bank[b] = np.where(g > 0, W[:, [col[f] for f in members[b]]] / g, np.nan)
+    return HierarchicalHistory(t_s=trace.t_s, banks=tuple(banks), top=top, in_bank=in_bank,
+                               members={b: members[b] for b in banks if b in members}, network=network,
+                               groups_from=source)
+
+
+def hierarchy_groups_from_config(config: str | Mapping[str, Any] | None) -> dict[str, dict[str, tuple[str, ...]]]:
+    """Bank membership of every hierarchical network in a scenario configuration (``config.yaml``
+    text or its parsed mapping): network -> bank -> filters, from ``fsw.gating[i].groups``.
+    Networks without banks and anything unreadable are left out (the weights then speak for
+    themselves), so a damaged or foreign file never stops a report."""
+    if isinstance(config, str):
+        import yaml
+
+        try:
+            config = yaml.safe_load(config)
+        except yaml.YAMLError:
+            return {}
+    fsw = config.get("fsw") if isinstance(config, Mapping) else None
+    gating = fsw.get("gating") if isinstance(fsw, Mapping) else None
+    out: dict[str, dict[str, tuple[str, ...]]] = {}
+    for entry in gating if isinstance(gating, list) else []:
+        if not isinstance(entry, Mapping) or not isinstance(entry.get("groups"), Mapping):
+            continue
+        groups = entry["groups"]
+        if groups and all(isinstance(fs, list) and all(isinstance(f, str) for f in fs) for fs in groups.values()):
+            out[str(entry.get("network"))] = {str(b): tuple(fs) for b, fs in groups.items()}
+    return out
+
+
+def hierarchy_means(h: HierarchicalHistory, split_s: float | None) -> dict[str, Any]:
+    """Mean top-level and in-bank weights over the updates before ``split_s`` (e.g. the first fault
+    onset) and from it on; the whole run under 'all'. A span without updates gives NaN."""
+    spans = {"all": np.ones(h.t_s.shape, dtype=bool)}
+    if split_s is not None:
+        spans |= {"before": h.t_s < split_s, "after": h.t_s >= split_s}
+
+    def mean(x: np.ndarray) -> float:
+        x = x[np.isfinite(x)]
+        return float(np.mean(x)) if x.size else float("nan")
+
+    out: dict[str, Any] = {"split_s": split_s, "updates": {k: int(sel.sum()) for k, sel in spans.items()}}
+    for k, sel in spans.items():
+        out[f"top_{k}"] = {b: mean(h.top[sel, i]) for i, b in enumerate(h.banks)}
+        out[f"in_bank_{k}"] = {b: {f: mean(h.in_bank[b][sel, j]) for j, f in enumerate(h.members[b])} for b in h.in_bank}
+    return out
 
 
 def _key(t_s: float) -> float:
@@ -239,14 +399,26 @@ def _start_epoch(by: dict[str, list]) -> float:
     return float(min(epochs)) if epochs else 0.0
 
 
-def extract(messages: Iterable[Any], *, t0: float | None = None) -> RunData:
-    """The arrays of a run; ``t0`` (TDB s) is day 0 of the plots (default: the simulator's start)."""
+def extract(messages: Iterable[Any], *, t0: float | None = None,
+            groups: Mapping[str, Mapping[str, Sequence[str]]] | None = None) -> RunData:
+    """The arrays of a run; ``t0`` (TDB s) is day 0 of the plots (default: the simulator's start).
+
+    ``groups``: network -> bank -> filters of the hierarchical networks (see
+    :func:`hierarchy_groups_from_config`); a membership that does not fit the recorded weights
+    is set aside for the one the weights imply."""
     by, skipped = group_by_topic(messages)
     data = RunData(t0=_start_epoch(by) if t0 is None else float(t0), skipped=skipped)
     for topic, msgs in sorted(by.items()):
         if topic.startswith(topics.FSW_WEIGHTS + "/"):
             trace = _weights(topic.split("/", 2)[2], msgs)
             data.weights[trace.network] = trace
+            if any(w.groups for w in msgs):
+                pairs = [(topic, w) for w in msgs]
+                given = (groups or {}).get(trace.network)
+                try:
+                    data.hierarchy[trace.network] = hierarchical_history(pairs, given, network=trace.network)
+                except ValueError:
+                    data.hierarchy[trace.network] = hierarchical_history(pairs, None, network=trace.network)
     truth: dict[float, m.Truth] = {_key(t.t_s): t for t in by.get(topics.SIM_TRUTH, [])}
     estimate_labels = []
     for topic, msgs in by.items():

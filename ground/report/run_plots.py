@@ -2,6 +2,8 @@
 
 * ``weights_<network>.png`` — gating-network weights vs time, one line per filter (Figs. 6, 7,
   10, 11, 15, 16, 20–22), fault onset and anomaly declaration marked;
+* ``hierarchy_<network>.png`` — hierarchical networks (seed 000 Figs. 5–9): the top-level bank
+  weights g_i, then one panel per bank with its in-bank weights g_j|i, events marked alike;
 * ``position_error_<filter>.png`` — |estimate − truth| with the ±1σ / 3σ RTPC envelope on a log
   axis (Figs. 3–5, 8, 9, 12, 13, 17–19); ``position_error_all.png`` overlays every filter;
 * ``clock_phase_<filter>.png`` — clock phase error with its 1σ / 3σ bounds (Fig. 14);
@@ -9,7 +11,7 @@
 * ``budget.png`` — frame utilisation and backlog of the executive;
 * ``measurements.png`` — which measurement kinds arrived when, coloured by station/target.
 
-Every figure is ~10×4 in at 120 dpi with days since the start of the run on the x axis. Each
+Every figure is ~10×4 in at 120 dpi (the hierarchy figure ~2 in per panel) with days since the start of the run on the x axis. Each
 ``plot_*`` writes its PNG and returns the path, or returns the Figure when given no path.
 """
 
@@ -79,6 +81,41 @@ def plot_weights(data: RunData, network: str, path: Path | None = None) -> Any:
     _time_axis(ax, data)
     ax.set_title(f"Gating network '{network}': filter weights ({len(days)} updates)")
     F.legend_outside(ax)
+    return F.finish(fig, path)
+
+
+def plot_hierarchy(data: RunData, network: str, path: Path | None = None) -> Any:
+    """Top-level bank weights g_i, then the in-bank weights g_j|i of each bank (seed 000 Figs. 5–9);
+    only the top level when the bank membership is unknown."""
+    h = data.hierarchy[network]
+    banks = [b for b in h.banks if b in h.in_bank]
+    fig, axes = F.new_figure(1 + len(banks), 1, size=(10.0, 1.0 + 2.0 * (1 + len(banks))), sharex=True)
+    axes = np.atleast_1d(axes)
+    days = data.day(h.t_s)
+    few = len(days) <= FEW_POINTS
+    marker = {"marker": "o" if few else None, "markersize": 3.5}
+    bank_styles = F.filter_styles(h.banks)
+    for i, b in enumerate(h.banks):
+        axes[0].plot(days, h.top[:, i], drawstyle="steps-post", linewidth=1.6, label=b, **marker, **bank_styles[b])
+    known = {"given": "", "inferred": ", banks inferred from the weights", "unknown": ", bank membership unknown"}
+    axes[0].set_title(f"Hierarchical gating network '{network}': top-level bank weights g_i "
+                      f"({len(days)} updates{known[h.groups_from]})", loc="left")
+    for ax, b in zip(axes[1:], banks):
+        styles = F.filter_styles(h.members[b])
+        for j, f in enumerate(h.members[b]):
+            ax.plot(days, h.in_bank[b][:, j], drawstyle="steps-post", linewidth=1.4, label=f, **marker, **styles[f])
+        ax.set_title(f"bank '{b}': in-bank weights g_j|i = w_j / g_i", loc="left", fontsize=10)
+    for k, ax in enumerate(axes):
+        handles, labels = ax.get_legend_handles_labels()
+        _event_lines(ax, data, estimated_onset=False)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_ylabel("weight [-]")
+        ax.grid(True, which="major", alpha=0.3)
+        if k == 0:
+            F.legend_outside(ax)
+        else:  # the event lines are explained once, in the top panel's legend
+            F.legend_outside(ax, handles=handles, labels=labels)
+    _time_axis(axes[-1], data)
     return F.finish(fig, path)
 
 
@@ -239,6 +276,8 @@ def write_run_figures(messages: Iterable[Any] | RunData, out_dir: str | Path, *,
     written: list[Path] = []
     for net in data.weights:
         written.append(plot_weights(data, net, out / f"weights_{F.slug(net)}.png"))
+    for net in data.hierarchy:
+        written.append(plot_hierarchy(data, net, out / f"hierarchy_{F.slug(net)}.png"))
     for label in _ordered_estimates(data):
         if len(data.position[label].t_s):
             written.append(plot_position_error(data, label, out / f"position_error_{F.slug(label)}.png"))

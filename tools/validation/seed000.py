@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from fsw.interface import topics
+from ground.report.run_data import hierarchical_history
 from tools.inprocess import RunResult, run_in_process
 from tools.scenario import ScenarioConfig, load_scenario
 
@@ -58,17 +59,11 @@ def analyse(result: RunResult) -> CruiseResults:
     if not msgs:
         raise ValueError("the run published no hierarchical weights")
     t0 = cfg.fsw.initial_state.t_s
-    groups = _groups(cfg)
-    banks = list(groups)
-    filters = list(msgs[-1].filters)
-    t_day = np.array([(m.t_s - t0) / DAY_S for m in msgs])
-    W = np.array([m.weights for m in msgs])
-    top = np.array([[m.groups.get(b, np.nan) for b in banks] for m in msgs])
-    in_bank = {}
-    for bi, b in enumerate(banks):
-        idx = [filters.index(f) for f in groups[b]]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            in_bank[b] = W[:, idx] / top[:, [bi]]
+    h = hierarchical_history(msgs, _groups(cfg), network=NETWORK)
+    groups = {b: list(h.members[b]) for b in h.banks}
+    banks = list(h.banks)
+    t_day = (h.t_s - t0) / DAY_S
+    top, in_bank = h.top, h.in_bank
     change = min((f.onset_day for f in cfg.sim.faults if f.type == "nga-level"), default=np.nan)
     span = cfg.sim.trajectory.span_days
     counts = result.summary["measurements"]["processed"]
@@ -121,11 +116,19 @@ def plot_cruise(res: CruiseResults, path: str | Path) -> Path:
     return save(fig, Path(path))
 
 
-def seed000_section(fig_dir: Path, doc_dir: Path, results: CruiseResults | None = None) -> Any:
+def _pick(d: dict[str, float]) -> str:
+    return max(d, key=d.get)
+
+
+def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] | None = None,
+                    seeds: tuple[int, ...] = (1, 2, 3, 4, 5)) -> Any:
+    """The report section: seed ``seeds[0]`` in the table and figure, every finding counted over all
+    seeds (one in-process cruise each, ~20 s)."""
     from tools.validation import paper
     from tools.validation.document import Claim, Section, _figure_links, _table, claims_lines
 
-    r = results or run_cruise()
+    runs = results or [run_cruise(seed) for seed in seeds]
+    r = runs[0]
     fig = plot_cruise(r, fig_dir / "seed000-pathfinder-cruise.png")
     s = Section("Seed 000 §V: hierarchical gating on the `pathfinder-cruise` scenario")
     s.lines += [
@@ -136,41 +139,55 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: CruiseResults | None 
         f"ECRVs with τ = 7 d whose steady-state σ steps from 0.7e-12 to 7.0e-12 km/s² on day {r.change_day:g}. "
         "The FSW flies the Table I hierarchy (4 banks × 3 filters, NGA as a 1-hour batched ECRV with each "
         "filter's τ and σ, bank 4 with σ_n 0.001 / 0.05 / 0.10 mm/s) under the `hierarchical` network with "
-        f"η = 1 at both levels. One run (seed {r.seed}), {r.measurements} Doppler points (the paper: "
-        f"{paper.SEED000_OBSERVATIONS}).",
+        f"η = 1 at both levels. {r.measurements} Doppler points per run (the paper: "
+        f"{paper.SEED000_OBSERVATIONS}); {len(runs)} runs (seeds {', '.join(str(x.seed) for x in runs)}), "
+        "computed by `navbank validation-report` in process — the same FSW code `navbank run` flies:",
         "",
         "```bash",
-        "navbank run --scenario pathfinder-cruise            # the same run over Zenoh, recorded to MCAP",
-        "navbank report runs/<run-id>                       # its weight plots",
+        "navbank run --scenario pathfinder-cruise --seed 1   # one of them over Zenoh, recorded to MCAP",
+        "navbank report runs/<run-id>                      # bank and in-bank weight plots",
         "```",
         "",
-        "Top-level (bank) weight, mean over the second quarter of the arc (before the change) and the last "
-        "quarter (after it):",
+        f"Seed {r.seed}: top-level (bank) weight g_i and in-bank weights g_j|i, means over the second quarter of "
+        "the arc (before the change) and over the last quarter (after it); KF j|i is `kfj_i`:",
         "",
     ]
-    s.lines += _table(["bank", "before", "after", "in-bank before", "in-bank after"],
+    s.lines += _table(["bank", "g_i before", "g_i after", "g_j|i before", "g_j|i after"],
                       [[b, f"{r.top_mean_before[b]:.3f}", f"{r.top_mean_after[b]:.3f}",
                         ", ".join(f"{f} {w:.2f}" for f, w in r.in_bank_before[b].items()),
                         ", ".join(f"{f} {w:.2f}" for f, w in r.in_bank_after[b].items())] for b in r.banks])
-    b1, b2, b3 = r.banks[:3]
-    top_before = max(r.top_mean_before, key=r.top_mean_before.get)
-    top_after = max(r.top_mean_after, key=r.top_mean_after.get)
+    s.lines += ["", "Every seed:", ""]
+    s.lines += _table(["seed", "top bank before / after", "bank 3 overtakes bank 2 for good",
+                       "bank 2 pick before / after", "bank 3 pick after", "bank 4 pick"],
+                      [[str(x.seed), f"{_pick(x.top_mean_before)} / {_pick(x.top_mean_after)}",
+                        (f"day {x.overtake_day:.1f} ({x.overtake_measurements} meas. after the change)"
+                         if x.overtake_day is not None else "no"),
+                        f"{_pick(x.in_bank_before[x.banks[1]])} / {_pick(x.in_bank_after[x.banks[1]])}",
+                        _pick(x.in_bank_after[x.banks[2]]),
+                        ", ".join(sorted(x.in_bank_after[x.banks[3]], key=x.in_bank_after[x.banks[3]].get,
+                                         reverse=True)[:2])]
+                       for x in runs])
+    n = len(runs)
+    b2, b3 = r.banks[1], r.banks[2]
+    k_before = sum(_pick(x.top_mean_before) == x.banks[1] for x in runs)
+    k_after = sum(_pick(x.top_mean_after) == x.banks[2] for x in runs)
+    k22 = sum(_pick(x.in_bank_before[x.banks[1]]) == x.bank_filters[x.banks[1]][1] for x in runs)
+    k12 = sum(_pick(x.in_bank_after[x.banks[1]]) == x.bank_filters[x.banks[1]][0] for x in runs)
+    k23 = sum(_pick(x.in_bank_after[x.banks[2]]) == x.bank_filters[x.banks[2]][1] for x in runs)
+    k4 = sum(set(sorted(x.in_bank_after[x.banks[3]], key=x.in_bank_after[x.banks[3]].get)[1:])
+             == set(x.bank_filters[x.banks[3]][:2]) for x in runs)
+    delays = [x.overtake_day - x.change_day for x in runs if x.overtake_day is not None]
     s.claims = [
-        Claim("s0-top-before", "top-level gate selects bank 2 before the change", top_before == b2,
-              f"highest mean weight before: {top_before} ({r.top_mean_before[top_before]:.3f})"),
-        Claim("s0-top-after", "top-level gate moves to bank 3 after the change", top_after == b3,
-              f"highest mean weight after: {top_after} ({r.top_mean_after[top_after]:.3f}); bank 3 above bank 2 "
-              + (f"for good from day {r.overtake_day:.1f} ({r.overtake_measurements} measurements after the change)"
-                 if r.overtake_day is not None else "not for good by the end")),
+        Claim("s0-top-before", "top-level gate selects bank 2 before the change", k_before == n,
+              f"{k_before}/{n} seeds (seed {r.seed}: {b2} {r.top_mean_before[b2]:.3f})"),
+        Claim("s0-top-after", "top-level gate moves to bank 3 after the change", k_after == n,
+              f"{k_after}/{n} seeds (seed {r.seed}: {b3} {r.top_mean_after[b3]:.3f}); bank 3 ahead for good "
+              + (f"{min(delays):.1f}–{max(delays):.1f} days after the change" if delays else "never")),
+        Claim("s0-bank2-before", "bank 2 selects KF 2|2 before the change", 2 * k22 > n, f"{k22}/{n} seeds"),
+        Claim("s0-bank2-after", "bank 2 selects KF 1|2 after the change", 2 * k12 > n, f"{k12}/{n} seeds"),
+        Claim("s0-bank3", "bank 3 selects KF 2|3 after the change", 2 * k23 > n, f"{k23}/{n} seeds"),
+        Claim("s0-bank4", "bank 4 favours KF 1|4 and KF 2|4", 2 * k4 > n, f"{k4}/{n} seeds"),
     ]
-    f22, f12, f23 = r.bank_filters[b2][1], r.bank_filters[b2][0], r.bank_filters[b3][1]
-    ib2b = max(r.in_bank_before[b2], key=r.in_bank_before[b2].get)
-    ib2a = max(r.in_bank_after[b2], key=r.in_bank_after[b2].get)
-    ib3a = max(r.in_bank_after[b3], key=r.in_bank_after[b3].get)
-    s.claims += [
-        Claim("s0-bank2", "bank 2 selects KF 2|2 before the change and KF 1|2 after it", ib2b == f22 and ib2a == f12,
-              f"bank 2: {ib2b} before, {ib2a} after"),
-        Claim("s0-bank3", "bank 3 selects KF 2|3 after the change", ib3a == f23, f"bank 3 after: {ib3a}"),
-    ]
-    s.lines += ["", "Findings:", "", *claims_lines(s.claims), "", *_figure_links([fig], doc_dir), ""]
+    s.lines += ["", "Findings (a finding about a single selection counts as reproduced when it holds in most seeds):",
+                "", *claims_lines(s.claims), "", *_figure_links([fig], doc_dir), ""]
     return s
