@@ -30,6 +30,7 @@ class Section:
     title: str
     lines: list[str] = field(default_factory=list)
     claims: list[Claim] = field(default_factory=list)
+    discussion: str = ""
 
 
 def _tick(ok: bool) -> str:
@@ -453,7 +454,7 @@ def overinflated_section(camp: Path, doc_dir: Path) -> Section:
 
 
 
-def render(sections: list[Section], extra: dict[str, str], *, generated: str, commands: list[str]) -> str:
+def render(sections: list[Section], *, generated: str, commands: list[str]) -> str:
     lines = [
         "# navbank validation report",
         "",
@@ -479,8 +480,8 @@ def render(sections: list[Section], extra: dict[str, str], *, generated: str, co
     lines += _table(["source", "finding", "reproduces"], body)
     for s in sections:
         lines += ["", f"## {s.title}", "", *s.lines]
-        if s.title in extra:
-            lines += ["", extra[s.title]]
+        if s.discussion:
+            lines += ["", s.discussion]
     return "\n".join(lines).rstrip() + "\n"
 
 
@@ -493,7 +494,6 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
     fig_dir = out_dir / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
     sections: list[Section] = []
-    extra: dict[str, str] = {}
     reports = {}
     for name in CAMPAIGNS:
         camp = campaigns_dir / name
@@ -501,38 +501,34 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
             rep = camp / "report"
             report_campaign(camp, rep)
             reports[name] = rep
-    if "seed001-table3" in reports:
-        figs = copy_figures(reports["seed001-table3"], ("mean_weights_chi2.png", "mean_weights_magill.png",
-                                                         "weights_vs_time_*.png"), fig_dir, "table3")
-        sec = table3_section(campaigns_dir / "seed001-table3", figs, out_dir)
-        sections.append(sec)
-        extra[sec.title] = TABLE3_DISCUSSION
-    if "seed001-table4" in reports:
-        figs = copy_figures(reports["seed001-table4"], ("mean_weights_chi2.png", "weights_vs_time_chi2_*.png"),
-                            fig_dir, "table4")
-        sections.append(table4_section(campaigns_dir / "seed001-table4", figs, out_dir))
+    campaign_sections = (  # campaign, figures to copy, section builder, discussion
+        ("seed001-table3", ("mean_weights_chi2.png", "mean_weights_magill.png", "weights_vs_time_*.png"),
+         table3_section, TABLE3_DISCUSSION),
+        ("seed001-table4", ("mean_weights_chi2.png", "weights_vs_time_chi2_*.png"), table4_section, ""),
+        ("detection-matrix", ("networks_compared.png", "detection_latency.png", "weights_vs_time_*.png"),
+         detection_section, DETECTION_DISCUSSION),
+    )
+    for name, patterns, make, discussion in campaign_sections[:2]:
+        if name in reports:
+            sections.append(make(campaigns_dir / name, copy_figures(reports[name], patterns, fig_dir, name), out_dir))
+            sections[-1].discussion = discussion
     results = (seed003 or run_seed003)()
-    fig = plot_experiment_3(results, fig_dir / "seed003-experiment3.png")
-    sec = seed003_section(results, fig, out_dir)
-    sections.append(sec)
-    extra[sec.title] = SEED003_DISCUSSION
+    sections.append(seed003_section(results, plot_experiment_3(results, fig_dir / "seed003-experiment3.png"), out_dir))
+    sections[-1].discussion = SEED003_DISCUSSION
     if cruise:
         from tools.validation.seed000 import seed000_section
 
-        sec = seed000_section(fig_dir, out_dir)
-        sections.append(sec)
-        extra[sec.title] = SEED000_DISCUSSION
-    if "detection-matrix" in reports:
-        figs = copy_figures(reports["detection-matrix"], ("networks_compared.png", "detection_latency.png",
-                                                           "weights_vs_time_*.png"), fig_dir, "detection")
-        sec = detection_section(campaigns_dir / "detection-matrix", figs, out_dir)
-        sections.append(sec)
-        extra[sec.title] = DETECTION_DISCUSSION
+        sections.append(seed000_section(fig_dir, out_dir))
+        sections[-1].discussion = SEED000_DISCUSSION
+    for name, patterns, make, discussion in campaign_sections[2:]:
+        if name in reports:
+            sections.append(make(campaigns_dir / name, copy_figures(reports[name], patterns, fig_dir, name), out_dir))
+            sections[-1].discussion = discussion
     if "overinflated" in reports:
         sections.append(overinflated_section(campaigns_dir / "overinflated", out_dir))
     commands = [f"navbank campaign {n} --out {campaigns_dir.as_posix()}/{n}" for n in CAMPAIGNS]
     commands.append(f"navbank validation-report --campaigns {campaigns_dir.as_posix()} --out {out_dir.as_posix()}")
-    text = render(sections, extra, generated=time.strftime("%Y-%m-%d"), commands=commands)
+    text = render(sections, generated=time.strftime("%Y-%m-%d"), commands=commands)
     path = out_dir / "validation.md"
     path.write_text(text, encoding="utf-8")
     return path
