@@ -177,10 +177,14 @@ def variant_of(row: dict) -> str:
 
 
 def split_size(case: str) -> tuple[str, str | None]:
-    """``optical-bias-medium`` → (``optical-bias``, ``medium``); cases without a size → (case, None)."""
+    """``optical-bias-medium`` → (``optical-bias``, ``medium``), and a label written the other way
+    round, ``medium bias - optical`` → (``bias - optical``, ``medium``); cases without a size →
+    (case, None)."""
     for size in SIZES:
         if case.endswith("-" + size):
             return case[: -len(size) - 1], size
+        if case.startswith(size + " "):
+            return case[len(size) + 1:], size
     return case, None
 
 
@@ -260,7 +264,8 @@ def _ordered(keys: Iterable[str]) -> list[str]:
     """Cases in a reading order: nominal first, then by family and size small → large."""
     def key(c: str) -> tuple:
         fam, size = split_size(c)
-        return (c != "none", fam, SIZES.index(size) if size else -1, c)
+        nominal = c in ("none", "no bias", "nominal") or c.startswith("no ")
+        return (not nominal, fam, SIZES.index(size) if size else -1, c)
 
     return sorted(set(keys), key=key)
 
