@@ -182,12 +182,34 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
         mg = weight_table(rows, "magill", scenario=scen).get(case)
         if mg is not None:
             top = max(mg.mean, key=mg.mean.get)
-            s.lines.append(f"Magill, {label}: highest weight {top} ({mg.mean[top]:.3f}); seed 001 reports the "
-                           "high-uncertainty fused filter.")
+            s.claims.append(Claim(f"table4-magill-{label}", f"{label}: Magill favours the high-uncertainty fused "
+                                  "filter (fused-Q)", top == "fused-Q", f"highest: {top} ({mg.mean[top]:.3f})"))
+        runs = [r for r in rows if r["cell"]["scenario"] == scen and r["cell"]["fault"] == case]
+        declared = [r["summary"]["anomaly"] for r in runs if r["summary"]["anomaly"].get("declared")]
+        classes = sorted({a.get("first_class", a.get("class")) for a in declared})
+        s.lines.append(f"Detector (chi2, calibrated for this bank), {label}: declared in {len(declared)}/{len(runs)} "
+                       f"runs, diagnosed {', '.join(classes) or 'nothing'}.")
     s.lines += [""] + _table(["scenario", "filter", "paper", "navbank (fault)", "navbank (no fault)"], body)
     s.lines += ["", "Findings (seed 001 §4.4):", "", *claims_lines(s.claims), ""]
     s.lines += _figure_links(figures, doc_dir)
     return s
+
+
+TABLE4_DISCUSSION = """\
+**Magnitudes.** The orderings reproduce in both scenarios, with a spread over seeds of at most 0.003. In the
+attitude-thruster case the sizes are close to the paper's too: the low-Q radio and fused filters fall to
+≈ 0.04 (paper 0.084 / 0.082) and the optical filters rise to ≈ 0.23 (paper 0.25); navbank's radio-Q and
+fused-Q filters score as well as the optical ones (≈ 0.23 against the paper's 0.166), i.e. the filters
+that model the thrusters correctly look nominal — which is what the chi-square network should report.
+In the process-noise case the ordering holds but the deviations from 1/6 are about twenty times smaller
+than the paper's (0.162–0.169 against 0.074–0.243). The cause has not been isolated; the likely one is that the
+10× ACS force (5e-11 km/s²) keeps a fixed direction in the cruise frame, so the low-Q filters' daily
+polynomial batches (5e-12 km/s² a priori each day) and the SRP scale-factor bias absorb much of it. The
+paper's filters absorbed less, and with their model details unpublished navbank does not try to match
+that number. The detector
+still declares in every process-noise run, but the -Q margin is too small for the decision tree to call it
+`dynamics` with confidence.
+"""
 
 
 # -- seed 003 ---------------------------------------------------------------------------------------
@@ -504,7 +526,8 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
     campaign_sections = (  # campaign, figures to copy, section builder, discussion
         ("seed001-table3", ("mean_weights_chi2.png", "mean_weights_magill.png", "weights_vs_time_*.png"),
          table3_section, TABLE3_DISCUSSION),
-        ("seed001-table4", ("mean_weights_chi2.png", "weights_vs_time_chi2_*.png"), table4_section, ""),
+        ("seed001-table4", ("mean_weights_chi2.png", "weights_vs_time_chi2_*.png"), table4_section,
+         TABLE4_DISCUSSION),
         ("detection-matrix", ("networks_compared.png", "detection_latency.png", "weights_vs_time_*.png"),
          detection_section, DETECTION_DISCUSSION),
     )
