@@ -164,6 +164,7 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
         "",
     ]
     names = paper.TABLE4_FILTERS
+    detector_lines: list[str] = []
     cases = {"attitude thruster": ("insight-thrusters", "attitude thruster"),
              "process noise": ("insight-process-noise", "process noise")}
     body = []
@@ -187,10 +188,10 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
         runs = [r for r in rows if r["cell"]["scenario"] == scen and r["cell"]["fault"] == case]
         declared = [r["summary"]["anomaly"] for r in runs if r["summary"]["anomaly"].get("declared")]
         classes = sorted({a.get("first_class", a.get("class")) for a in declared})
-        s.lines.append(f"Detector (chi2, calibrated for this bank), {label}: declared in {len(declared)}/{len(runs)} "
-                       f"runs, diagnosed {', '.join(classes) or 'nothing'}.")
+        detector_lines.append(f"* detector (chi2, calibrated for this bank), {label}: declared in "
+                              f"{len(declared)}/{len(runs)} runs, diagnosed {', '.join(classes) or 'nothing'}")
     s.lines += [""] + _table(["scenario", "filter", "paper", "navbank (fault)", "navbank (no fault)"], body)
-    s.lines += ["", "Findings (seed 001 §4.4):", "", *claims_lines(s.claims), ""]
+    s.lines += ["", "Findings (seed 001 §4.4):", "", *claims_lines(s.claims), *detector_lines, ""]
     s.lines += _figure_links(figures, doc_dir)
     return s
 
