@@ -38,8 +38,11 @@ def _tick(ok: bool) -> str:
 
 
 def _table(header: list[str], rows: list[list[str]]) -> list[str]:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
+    def cell(text: str) -> str:
+        return text.replace("|", "\\|")  # "KF 2|2" must not split a cell
+
+    out = ["| " + " | ".join(map(cell, header)) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(map(cell, r)) + " |" for r in rows]
     return out
 
 
@@ -128,8 +131,11 @@ Earth-platform, troposphere/ionosphere and ephemeris parameters we leave out; it
 follows Ely et al. and is not fully specified). The chi-square network itself is not the cause: with
 the same data it follows seed 001 eq. 8 to 1e-8 (tests/test_gating_chi2.py) and the detector
 separates the optical cases from nominal. When the bias appears mid-arc, after the optical-only filter
-has converged (the built-in presets, onset day 20 — see the detection-matrix section), the paper's
-ordering appears: radio-only clearly preferred and fused lowest.
+has converged (the built-in presets, onset day 20 — the after-onset table of the detection-matrix section),
+the paper's ordering appears: for the large bias radio 0.98 / optical 0.02 / fused 0.004 against the paper's
+0.968 / 0.032 / 0.0004, for the medium bias 0.64 / 0.24 / 0.12 (radio first and fused last, but radio below
+0.8). The paper's optical-only filter behaved like navbank's converged one, i.e. it already knew enough to
+find the bias inconsistent; navbank's, starting from a 100 km a priori 10⁷ km out, does not.
 
 **Magill.** Magill picks the fused filter in every case except the large optical bias, where it moves
 to the optical-only filter: the fused filter's radio and optical residuals are then tens of sigma, while
@@ -251,9 +257,10 @@ def seed003_section(results: Any, figure: Path, doc_dir: Path) -> Section:
         Claim("s3-exp12", "Experiments 1–2: KF 3 selected (quickly at η = 1)",
               r.selection[1]["gate eta=1"][-1] > 0.5 and r.selection[1]["gate eta=1"][0] > 0.5,
               f"η = 1: KF 3 weight {r.selection[1]['gate eta=1']} (Exp. 1); η = 7: {r.selection[1]['gate eta=7']}"),
-        Claim("s3-first", f"first change: gate switches after measurement {paper.SEED003_SWITCH['gate']}, "
-              f"Magill after {paper.SEED003_SWITCH['magill']}",
-              gate1 < mag1 and abs(gate1 - (paper.SEED003_SWITCH["gate"] - 100)) <= 10,
+        Claim("s3-first", "first change: the gate switches before Magill, both within ~10 of the paper "
+              f"(paper: after measurement {paper.SEED003_SWITCH['gate']} and {paper.SEED003_SWITCH['magill']})",
+              gate1 < mag1 and abs(gate1 - (paper.SEED003_SWITCH["gate"] - 100)) <= 10
+              and abs(mag1 - (paper.SEED003_SWITCH["magill"] - 100)) <= 10,
               f"median: gate (η = 1) after measurement {100 + gate1:g}, Magill after {100 + mag1:g}"),
         Claim("s3-underflow", f"Magill's product form underflows near measurement {paper.SEED003_UNDERFLOW}",
               bool(abs(np.median(und) - paper.SEED003_UNDERFLOW) <= 3),
@@ -299,15 +306,37 @@ bank the top gate has dropped keep moving slowly; that follows from seed 000 eqs
 
 
 DETECTION_DISCUSSION = """\
-**Reading the matrix.** The three detectors share the calibration procedure (40 nominal runs, 5 % per run),
-so their false-alarm rows are comparable and their P_D columns compare sensitivity at equal false-alarm
-rate. The radio presets of seed 001 Table 2 are absorbed by the filters' clock and range-bias states (see
-Table 3) — their low P_D is the paper's own finding, now with a number on it. The thruster presets change
-the dynamics, which the three-filter bank of `insight-approach` has no -Q filters to recognise, so their
-diagnosed class is a measurement class or `unknown`; the six-filter banks of `insight-thrusters` and
-`insight-process-noise` exist for that (the Table 4 campaign). Magill's weights sit at the fused filter
-whatever happens until the fused filter fails outright, which is why its detector, with the same false-alarm
-rate, only sees the faults that break the fused filter.
+**Reading the matrix.** All three detectors were calibrated the same way (40 nominal runs, 5 % per run), so
+their P_D columns compare sensitivity at the same nominal false-alarm target.
+
+* **False alarms.** Out of sample, the chi2 detector declared on 4 of 20 nominal runs (20 %, 95 % interval
+  6–44 %), above its 5 % target; the 40 calibration runs had 1. The critical values of the fresh runs follow
+  the same distribution as the calibration's (Mann–Whitney p = 0.66): the threshold, the 2nd largest of 40
+  critical values, sits where that distribution is steep, and its true exceedance probability is itself
+  uncertain (Beta(2, 39): 95 % interval 0.6–13 %; `navbank calibrate` prints the matching prediction interval,
+  0 to 15 false alarms per 100 runs). Pooling both sets gives 5 of 60 (8 %). A mission would calibrate on a few
+  hundred runs (`--seeds 200`); the shipped 40-run calibration is kept as is so that this row stays an honest
+  out-of-sample check. One seed (seed 4) false-alarms on day 9 in every chi2 cell, before any onset, which is
+  why chi2 shows 19/20 where chi2-two-sided shows 20/20.
+* **Latency.** Declarations come ≈ 74 h after a day-20 onset for every fault the chi2 networks see at once:
+  three of five batches must exceed the threshold, and a batch is M = 1000 measurements ≈ 1.6 days, so the
+  latency floor is set by M and the persistence rule, not by the fault size. Small faults take one more batch
+  (≈ 113 h). A shorter batch buys latency at the cost of noisier weights (and a new calibration).
+* **Mid-arc radio biases are detected.** Unlike the day-0 biases of the Table 3 campaign, a 50 m / 0.3 mHz
+  range/Doppler bias or a clock step appearing on day 20, after the clock and range-bias states have converged,
+  is seen by both chi2 networks in every run and diagnosed as radiometric; the 5 m / 0.03 mHz bias is at the
+  edge (about half the runs).
+* **Small optical bias.** Detected, but mostly diagnosed `unknown`: the optical-only and radio-only weights
+  separate by less than the decision tree's margin (the weights-vs-time figure shows it).
+* **Thrusters on the three-filter bank.** `insight-approach` has no -Q filters, so dynamics faults show up as
+  radio-only filters losing weight and are diagnosed radiometric; the six-filter banks of `insight-thrusters`
+  and `insight-process-noise` (Table 4 campaign) are what characterizes them.
+* **Magill.** Its weights sit on the fused filter (≈ 1.0) from the first days and, never forgetting, stay there
+  through every optical bias and the thruster-scale case, so its detector sees none of them; radiometric
+  faults move it at once (latency < 1 h) but without a usable class. This is seed 001's criticism of Magill,
+  measured.
+* **chi2-two-sided** detects everything chi2 detects with the same calibration procedure, and fixes the
+  over-inflated-filter weakness (next section).
 """
 
 
@@ -329,22 +358,14 @@ def detector_results(row: dict) -> dict[str, dict]:
     return out
 
 
-def _case_order(rows: list[dict]) -> list[str]:
-    seen: list[str] = []
-    for r in rows:
-        c = r["cell"]["fault"]
-        if c not in seen:
-            seen.append(c)
-    return seen
-
-
 def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
     from tools.campaign.stats import binomial, latency_stats
 
     s = Section("Beyond the papers: detection, false alarms, latency, characterization")
+    from ground.report.campaign_data import cases as reading_order
+
     rows = sorted(ok_rows(camp), key=lambda r: (r["cell"]["fault"], r["seed"]))
-    plan_order = _case_order(sorted(ok_rows(camp), key=lambda r: r["id"]))
-    cases = [c for c in plan_order]
+    cases = reading_order(rows)
     n_seeds = max((sum(1 for r in rows if r["cell"]["fault"] == c) for c in cases), default=0)
     onsets = sorted({round(r["summary"]["anomaly"].get("onset_true_day") or 0.0, 2) for r in rows
                      if r["summary"]["anomaly"].get("onset_true_day") is not None})
@@ -437,8 +458,8 @@ def overinflated_section(camp: Path, doc_dir: Path) -> Section:
     s.lines += [
         "Seed 001 §4.4 names a weakness of its chi-square network: a filter whose uncertainty is over-inflated "
         "produces small chi-square residuals and is rewarded. Scenario `insight-overinflated` adds to the "
-        "nominal radio / optical / fused bank a copy of the fused filter that reports inflated measurement "
-        "sigmas; no fault. navbank's `chi2-two-sided` network replaces the statistic G by ν + max(G − ν, d), "
+        "nominal radio / optical / fused bank a copy of the fused filter whose measurement sigmas are three "
+        "times the reported ones (`sigma_scale: 3` on every kind); no fault, 5 seeds. navbank's `chi2-two-sided` network replaces the statistic G by ν + max(G − ν, d), "
         "d = G − ν − ν ln(G/ν), the likelihood-ratio statistic for the scale of the innovation covariance, so a "
         "too-small chi-square is penalised like a too-large one (derivation in fsw/gating/chi2_two_sided.py).",
         "",
@@ -487,7 +508,7 @@ def render(sections: list[Section], *, generated: str, commands: list[str]) -> s
         "Where a finding does not reproduce the report says so and gives the evidence: the simulator was not "
         "tuned to any table.",
         "",
-        "Regenerate everything (about 2 h on 2 cores; `--workers` and `--executor dask` spread it):",
+        "Regenerate everything (about 1.5 h on 2 cores; `--workers` and `--executor dask` spread it):",
         "",
         "```bash",
         *commands,
@@ -550,8 +571,9 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
             sections[-1].discussion = discussion
     if "overinflated" in reports:
         sections.append(overinflated_section(campaigns_dir / "overinflated", out_dir))
-    commands = [f"navbank campaign {n} --out {campaigns_dir.as_posix()}/{n}" for n in CAMPAIGNS]
-    commands.append(f"navbank validation-report --campaigns {campaigns_dir.as_posix()} --out {out_dir.as_posix()}")
+    # the documented procedure, whatever directories this copy was generated from
+    commands = [f"navbank campaign {n} --out campaigns/{n}" for n in CAMPAIGNS]
+    commands.append("navbank validation-report --campaigns campaigns --out docs")
     text = render(sections, generated=time.strftime("%Y-%m-%d"), commands=commands)
     path = out_dir / "validation.md"
     path.write_text(text, encoding="utf-8")
