@@ -438,7 +438,7 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
                     "declaration, `none` = nothing declared):", ""]
         s.lines += _table(["injected \\ diagnosed", *classes],
                           [[t, *(str(mat.get((t, c), 0)) for c in classes)] for t in true_classes])
-    s.lines += [""] + _figure_links(figures, doc_dir)
+    s.lines += ["", "The figure below scores the class each detector settled on (its last report with the flag raised); the tables above score the class at the first declaration. They differ where a diagnosis changes after the first declaration, as Magill's does for the radiometric faults.", ""] + _figure_links(figures, doc_dir)
     # the mid-arc counterpart of Table 3, from the same runs
     chi2 = weight_table(rows, "chi2", which="mean_weights_after_onset")
     magill = weight_table(rows, "magill", which="mean_weights_after_onset")
