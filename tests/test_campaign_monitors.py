@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 from types import SimpleNamespace
 
-import numpy as np
 import pytest
 
 from fsw.fdir.config import DetectorConfig, config_to_yaml
@@ -15,7 +14,7 @@ from tools.campaign.report import render
 from tools.campaign.spec import load_campaign, load_campaign_text
 from tools.campaign.stats import compute
 from tools.campaign.worker import execute
-from tools.summary import anomaly_summary
+from ground.report.run_facts import anomaly_summary
 
 FILTERS = ("radio", "optical", "fused")
 DAY = 86400.0

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from typing import Any, Iterable, Sequence
+from typing import Any, Iterable
 
 import numpy as np
 
-from fsw.interface import messages as m, topics
+from fsw.interface import topics
+from ground.report.run_facts import anomaly_summary
 
 DAY_S = 86400.0
 
@@ -123,45 +124,6 @@ def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, 
         "budget": budget,
         "wall_time_s": wall_time_s,
     }
-
-
-def anomaly_summary(reports: Sequence[Any], *, onset_true: float | None, true_class: str, t0: float) -> dict[str, Any]:
-    """The ``anomaly`` block of a summary from a detector's reports, in time order.
-
-    ``reports`` are :class:`~fsw.interface.messages.AnomalyReport` messages (the onboard detector)
-    or anything with the same attributes ``t_s, flag, anomaly_class, confidence, onset_s,
-    declared_s, network`` (a detector replayed on the ground, ``summary["monitors"]``). The first
-    flagged report gives the declaration epoch and the onset estimate; the class is the one the
-    detector settled on (the last flagged report: it refines as evidence grows). A declaration
-    before the true onset (or with none injected) is a false alarm, otherwise its latency is
-    declaration − true onset.
-    """
-    first = next((r for r in reports if r.flag), None)
-    anomaly: dict[str, Any] = {
-        "detector": bool(reports),
-        "declared": first is not None,
-        "time": None, "time_day": None, "onset_true": onset_true,
-        "onset_true_day": None if onset_true is None else (onset_true - t0) / DAY_S,
-        "onset_estimate": None, "latency_s": None, "class": "none", "true_class": true_class,
-        "confidence": 0.0, "network": reports[-1].network if reports else None,
-        "false_alarm": False, "correct_class": None, "final_flag": bool(reports[-1].flag) if reports else False,
-        "final_class": reports[-1].anomaly_class if reports else "none",
-    }
-    if first is not None:
-        t_decl = first.declared_s if first.declared_s is not None else first.t_s
-        last_flagged = [r for r in reports if r.flag][-1]
-        anomaly.update({
-            "time": t_decl, "time_day": (t_decl - t0) / DAY_S, "onset_estimate": first.onset_s,
-            "class": last_flagged.anomaly_class, "first_class": first.anomaly_class,
-            "confidence": float(last_flagged.confidence), "network": first.network,
-        })
-        if onset_true is None or t_decl < onset_true:
-            anomaly["false_alarm"] = True
-        else:
-            anomaly["latency_s"] = t_decl - onset_true
-            anomaly["latency_day"] = (t_decl - onset_true) / DAY_S
-        anomaly["correct_class"] = anomaly["class"] == true_class
-    return anomaly
 
 
 def describe(summary: dict) -> str:

@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from typing import Sequence
+
 from ground.report.run_data import DAY_S, RunData, declared_epoch
 
 
@@ -38,39 +40,50 @@ def _weights(data: RunData) -> dict[str, dict[str, Any]]:
     return out
 
 
+def anomaly_summary(reports: Sequence[Any], *, onset_true: float | None, true_class: str, t0: float) -> dict[str, Any]:
+    """The ``anomaly`` block of a summary from a detector's reports, in time order.
+
+    ``reports`` are :class:`~fsw.interface.messages.AnomalyReport` messages (the onboard detector)
+    or anything with the same attributes ``t_s, flag, anomaly_class, confidence, onset_s,
+    declared_s, network`` (a detector replayed on the ground, ``summary["monitors"]``). The first
+    flagged report gives the declaration epoch and the onset estimate; the class is the one the
+    detector settled on (the last flagged report: it refines as evidence grows). A declaration
+    before the true onset (or with none injected) is a false alarm, otherwise its latency is
+    declaration − true onset.
+    """
+    first = next((r for r in reports if r.flag), None)
+    anomaly: dict[str, Any] = {
+        "detector": bool(reports),
+        "declared": first is not None,
+        "time": None, "time_day": None, "onset_true": onset_true,
+        "onset_true_day": None if onset_true is None else (onset_true - t0) / DAY_S,
+        "onset_estimate": None, "latency_s": None, "class": "none", "true_class": true_class,
+        "confidence": 0.0, "network": reports[-1].network if reports else None,
+        "false_alarm": False, "correct_class": None, "final_flag": bool(reports[-1].flag) if reports else False,
+        "final_class": reports[-1].anomaly_class if reports else "none",
+    }
+    if first is not None:
+        t_decl = declared_epoch(first)
+        last_flagged = [r for r in reports if r.flag][-1]
+        anomaly.update({
+            "time": t_decl, "time_day": (t_decl - t0) / DAY_S, "onset_estimate": first.onset_s,
+            "class": last_flagged.anomaly_class, "first_class": first.anomaly_class,
+            "confidence": float(last_flagged.confidence), "network": first.network,
+        })
+        if onset_true is None or t_decl < onset_true:
+            anomaly["false_alarm"] = True
+        else:
+            anomaly["latency_s"] = t_decl - onset_true
+            anomaly["latency_day"] = (t_decl - onset_true) / DAY_S
+        anomaly["correct_class"] = anomaly["class"] == true_class
+    return anomaly
+
+
 def _anomaly(data: RunData) -> dict[str, Any]:
-    onset = data.onset_s
     starts = data.fault_starts
     true_class = min(starts, key=lambda e: e.t_s).fault_class if starts else "none"
-    a: dict[str, Any] = {
-        "declared": False, "time": None, "time_day": None, "onset_true": onset,
-        "onset_true_day": None if onset is None else (onset - data.t0) / DAY_S,
-        "onset_estimate": None, "latency_s": None, "class": "none", "true_class": true_class,
-        "confidence": 0.0, "network": data.anomaly.network if data.anomaly else None,
-        "false_alarm": False, "correct_class": None,
-        "final_flag": bool(data.anomaly.flag[-1]) if data.anomaly is not None and len(data.anomaly.flag) else False,
-        "final_class": data.anomaly.reports[-1].anomaly_class if data.anomaly is not None and data.anomaly.reports else "none",
-    }
-    first = data.first_declaration
-    if first is None:
-        return a
-    t_decl = declared_epoch(first)
-    a.update(declared=True, time=t_decl, time_day=(t_decl - data.t0) / DAY_S, onset_estimate=first.onset_s,
-             network=first.network or a["network"], first_class=first.anomaly_class)
-    # the class the detector settled on is that of its last report with the flag raised
-    flagged = [i for i, f in enumerate(data.anomaly.flag) if f] if data.anomaly is not None else []
-    a["class"] = first.anomaly_class
-    a["confidence"] = float(first.confidence)
-    if flagged and data.anomaly is not None and data.anomaly.reports:
-        last = data.anomaly.reports[flagged[-1]]
-        a["class"], a["confidence"] = last.anomaly_class, float(last.confidence)
-    if onset is None or t_decl < onset:
-        a["false_alarm"] = True
-    else:
-        a["latency_s"] = t_decl - onset
-        a["latency_day"] = (t_decl - onset) / DAY_S
-    a["correct_class"] = a["class"] == true_class
-    return a
+    reports = list(data.anomaly.reports) if data.anomaly is not None else []
+    return anomaly_summary(reports, onset_true=data.onset_s, true_class=true_class, t0=data.t0)
 
 
 def _budget(data: RunData) -> dict[str, Any]:

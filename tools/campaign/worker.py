@@ -9,7 +9,7 @@ Monitors (``payload["monitors"]``: network -> detector calibration) are further 
 detectors evaluated on the same run: each network's FilterWeights stream is replayed, in order,
 through a fresh :class:`~fsw.fdir.detector.AnomalyDetector` built exactly as the FSW builds its own
 (the calibration and the bank's family tags), and ``summary["monitors"][network]`` gets the same
-block as ``summary["anomaly"]`` (one definition: :func:`tools.summary.anomaly_summary`).
+block as ``summary["anomaly"]`` (one definition: :func:`ground.report.run_facts.anomaly_summary`).
 
 Any exception raised by the run itself is caught here and becomes a ``failed`` row with the error
 type, message and the tail of the traceback: one bad run never stops a campaign.
@@ -33,7 +33,7 @@ from fsw.fdir.families import FilterFamily
 from fsw.interface import messages as m, topics, typed
 from tools.inprocess import RunResult, run_in_process
 from tools.scenario import ScenarioConfig
-from tools.summary import anomaly_summary
+from ground.report.run_facts import anomaly_summary
 
 TRACEBACK_LINES = 12
 
@@ -63,7 +63,7 @@ def weight_history(result: RunResult, network: str) -> dict[str, Any]:
 @dataclass(frozen=True)
 class ReplayedReport:
     """A replayed detector's verdict after one batch, with the attributes of an AnomalyReport
-    that :func:`tools.summary.anomaly_summary` reads."""
+    that :func:`ground.report.run_facts.anomaly_summary` reads."""
 
     t_s: float
     flag: bool
