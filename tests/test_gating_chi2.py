@@ -26,7 +26,7 @@ def scipy_weights(G, W, p_prev, bounds=False):
         jac=lambda p, *a: G * p + Winv @ (p - p_prev),
         constraints=[{"type": "eq", "fun": lambda p: p.sum() - 1.0, "jac": lambda p: np.ones(n)}],
         bounds=[(0.0, 1.0)] * n if bounds else None, method="SLSQP",
-        options={"ftol": 1e-16, "maxiter": 1000},
+        options={"ftol": 1e-14, "maxiter": 1000},
     )
     assert res.success, res.message
     return res.x
