@@ -4,7 +4,7 @@ Subscribes to ``navbank/<run-id>/**`` and writes each sample as it is taken: ICD
 channels with their JSON Schema, unknown topics on schema-less ``json`` channels (counted), and
 payloads that fail strict decoding on ``/_invalid/<topic>`` channels as raw bytes (counted) —
 nothing delivered is dropped. The logger serves the ``ground`` progress queryable, so producers
-can :func:`~fsw.interface.transport.drain` into it before they close.
+can :func:`~fsw.transport.drain` into it before they close.
 
 It stops
 
@@ -21,20 +21,16 @@ has no footer, but chunks are closed every ``flush_interval_s``, so
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
-import signal
 import socket
-import sys
-import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import fsw.transport as tp
 from fsw.interface import codec, topics
-from fsw.interface import transport as tp
 from fsw.interface.messages import SCHEMA_VERSION
 from ground.mcap_io.recorder import INVALID_PREFIX, McapRecorder, publish_time_of
 
@@ -151,125 +147,71 @@ def run_logger(
     out_path = os.fspath(out_path)
     until_end_of_run = until_end_of_run and bool(producers)
     items = _attachment_items(attachments)
-    stop_signal = threading.Event()
-    old_handlers: dict[int, Any] = {}
-    if handle_signals and threading.current_thread() is threading.main_thread():
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            old_handlers[sig] = signal.signal(sig, lambda *_: stop_signal.set())
     t0 = time.monotonic()
     ended_by = "stop"
-    try:
-        with tp.open_session(transport_cfg) as session:
-            with tp.Subscriber(session, run_id, ("**",), decode=False, role="ground", capacity=capacity) as sub:
-                with McapRecorder(out_path, flush_interval_s=flush_interval_s, chunk_size=chunk_size) as rec:
-                    run_info = {
-                        "run_id": run_id,
-                        "schema_version": str(SCHEMA_VERSION),
-                        "started_unix_ns": str(time.time_ns()),
-                        "host": socket.gethostname(),
-                        "producers": ",".join(producers),
-                    }
-                    run_info.update({str(k): v if isinstance(v, str) else json.dumps(v) for k, v in (metadata or {}).items()})
-                    rec.add_metadata("navbank.run", run_info)
-                    for name, data, media_type in items:
-                        rec.add_attachment(name, data, media_type)
-                    write = _Writer(rec, validate)
-                    if ready_event is not None:
-                        ready_event.set()
-                    finished_at: float | None = None
-                    next_check = 0.0
-                    while True:
-                        got = sub.recv(timeout=0.05)
-                        if got is not None:
-                            write(got)
-                        else:
-                            rec.tick()
-                        now = time.monotonic()
-                        if stop_signal.is_set():
-                            ended_by = "signal"
-                            break
-                        if stop_event is not None and stop_event.is_set():
-                            ended_by = "stop"
-                            break
-                        if max_duration_s is not None and now - t0 >= max_duration_s:
-                            ended_by = "duration"
-                            break
-                        if until_end_of_run and now >= next_check:
-                            next_check = now + 0.05
-                            if finished_at is None and sub.finished(producers):
-                                finished_at = now
-                            if finished_at is not None and (
-                                all(sub.acknowledged.get(p) for p in producers) or now - finished_at >= linger_s
-                            ):
-                                ended_by = "end-of-run"
-                                break
-                    for got in sub.drain_available():  # delivered before we stopped: keep it
-                        write(got)
-                    finished = tuple(p for p in producers if sub.finished([p]))
-                    result = LogResult(
-                        path=out_path,
-                        ended_by=ended_by,
-                        elapsed_s=time.monotonic() - t0,
-                        counts=dict(rec.counts),
-                        unknown=write.unknown,
-                        invalid=write.invalid,
-                        gaps=dict(sub.gaps),
-                        finished=finished,
-                    )
-                    rec.add_metadata(
-                        "navbank.logger",
-                        {"ended_by": ended_by, "counts": result.counts, "unknown": result.unknown,
-                         "invalid": result.invalid, "gaps": result.gaps, "finished": list(finished)},
-                    )
-                # A moment for the last drain replies to leave before the session closes.
-                if ended_by == "end-of-run":
-                    time.sleep(0.2)
-    finally:
-        for sig, handler in old_handlers.items():
-            signal.signal(sig, handler)
+    with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=handle_signals) as life:
+        sub = life.subscriber(("**",), decode=False, role="ground", capacity=capacity)
+        with McapRecorder(out_path, flush_interval_s=flush_interval_s, chunk_size=chunk_size) as rec:
+            run_info = {
+                "run_id": run_id,
+                "schema_version": str(SCHEMA_VERSION),
+                "started_unix_ns": str(time.time_ns()),
+                "host": socket.gethostname(),
+                "producers": ",".join(producers),
+            }
+            run_info.update({str(k): v if isinstance(v, str) else json.dumps(v) for k, v in (metadata or {}).items()})
+            rec.add_metadata("navbank.run", run_info)
+            for name, data, media_type in items:
+                rec.add_attachment(name, data, media_type)
+            write = _Writer(rec, validate)
+            if ready_event is not None:
+                ready_event.set()
+            finished_at: float | None = None
+            next_check = 0.0
+            while True:
+                got = sub.recv(timeout=0.05)
+                if got is not None:
+                    write(got)
+                else:
+                    rec.tick()
+                now = time.monotonic()
+                stop_reason = life.stop_reason()
+                if stop_reason is not None:
+                    ended_by = stop_reason
+                    break
+                if max_duration_s is not None and now - t0 >= max_duration_s:
+                    ended_by = "duration"
+                    break
+                if until_end_of_run and now >= next_check:
+                    next_check = now + 0.05
+                    if finished_at is None and sub.finished(producers):
+                        finished_at = now
+                    if finished_at is not None and (
+                        all(sub.acknowledged.get(p) for p in producers) or now - finished_at >= linger_s
+                    ):
+                        ended_by = "end-of-run"
+                        break
+            for got in sub.drain_available():  # delivered before we stopped: keep it
+                write(got)
+            finished = tuple(p for p in producers if sub.finished([p]))
+            result = LogResult(
+                path=out_path,
+                ended_by=ended_by,
+                elapsed_s=time.monotonic() - t0,
+                counts=dict(rec.counts),
+                unknown=write.unknown,
+                invalid=write.invalid,
+                gaps=dict(sub.gaps),
+                finished=finished,
+            )
+            rec.add_metadata(
+                "navbank.logger",
+                {"ended_by": ended_by, "counts": result.counts, "unknown": result.unknown,
+                 "invalid": result.invalid, "gaps": result.gaps, "finished": list(finished)},
+            )
+        if ended_by == "end-of-run":
+            life.let_replies_leave()
     if print_fn is not None:
         print_fn(result.report())
     return result
 
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of ``navbank ground log``."""
-    parser.add_argument("--run-id", required=True, help="run to record (Zenoh keys navbank/<run-id>/**)")
-    parser.add_argument("--out", required=True, metavar="FILE", help="MCAP file to write")
-    parser.add_argument("--producers", default="sim,fsw", metavar="LIST",
-                        help="comma-separated processes whose end-of-run ends the recording (default sim,fsw)")
-    parser.add_argument("--no-wait-end", action="store_true", help="ignore end-of-run; record until SIGINT/SIGTERM or --duration")
-    parser.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S seconds")
-    parser.add_argument("--attach", action="append", default=[], metavar="FILE", help="attach a file, e.g. the scenario YAML (repeatable)")
-    parser.add_argument("--no-validate", action="store_true", help="record without strict ICD decoding (faster)")
-    parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
-                        help="close the open chunk at least every S seconds (data lost on SIGKILL, default 0.5)")
-    tp.add_transport_arguments(parser)
-
-
-def main(args: argparse.Namespace) -> int:
-    """Run ``navbank ground log``; 0 on success, 1 if the network or the file failed."""
-    try:
-        cfg = tp.transport_config_from_args(args)
-        producers = tuple(p.strip() for p in args.producers.split(",") if p.strip())
-        run_logger(
-            args.run_id,
-            args.out,
-            cfg,
-            producers=producers,
-            until_end_of_run=not args.no_wait_end and bool(producers),
-            max_duration_s=args.duration,
-            validate=not args.no_validate,
-            attachments=args.attach,
-            flush_interval_s=args.flush_interval,
-        )
-    except (tp.TransportError, ValueError, OSError) as exc:
-        print(f"navbank ground log: {exc}", file=sys.stderr)
-        return 1
-    return 0
-
-
-if __name__ == "__main__":
-    _parser = argparse.ArgumentParser(prog="navbank ground log", description=__doc__.splitlines()[0])
-    add_arguments(_parser)
-    sys.exit(main(_parser.parse_args()))

@@ -7,7 +7,7 @@ as fast as possible by default, or at ``rate`` × real time.
 Delivery of measurements to the FSW is lossless even when the FSW stalls: a credit window keeps
 the simulator at most ``window`` measurements ahead of what the FSW has taken. The run ends with
 an end-of-run ``RunStatus`` (counts per topic) and the drain handshake with every consumer
-before the session closes (``fsw.interface.transport``).
+before the session closes (:class:`fsw.transport.ProcessLifecycle`).
 """
 
 from __future__ import annotations
@@ -16,8 +16,9 @@ import sys
 import time
 from typing import Callable, Sequence
 
+import fsw.transport as tp
 from fsw.astro.time import tdb_to_unix
-from fsw.interface import topics, transport as tp
+from fsw.interface import topics
 from fsw.interface.messages import RunStatus, Stamp
 from sim.stream import SimRun
 
@@ -44,48 +45,40 @@ def publish_run(
     ``consumers`` are the roles that must be up before the first message and must confirm the
     end of the stream; ``credit_role`` (one of them) paces the measurements.
     """
-    with tp.open_session(transport_cfg) as session:
-        tp.wait_for_consumers(session, run_id, consumers, timeout_s=wait_s)
+    # SIGINT/SIGTERM keep their default action: a stopped simulator has nothing left to save.
+    with tp.ProcessLifecycle(run_id, transport_cfg, handle_signals=False) as life:
+        life.wait_for_consumers(consumers, timeout_s=wait_s)
         credit = []
         if credit_role is not None:
-            credit.append(tp.CreditWindow(session, run_id, credit_role, topics.SIM_MEASUREMENTS, window=window))
+            credit.append(tp.CreditWindow(life.session, run_id, credit_role, topics.SIM_MEASUREMENTS, window=window))
         pubs = {
-            topics.SIM_MEASUREMENTS: tp.Publisher(session, run_id, topics.SIM_MEASUREMENTS, credit=credit),
-            topics.SIM_TRUTH: tp.Publisher(session, run_id, topics.SIM_TRUTH),
-            topics.SIM_FAULTS: tp.Publisher(session, run_id, topics.SIM_FAULTS),
+            topics.SIM_MEASUREMENTS: life.publisher(topics.SIM_MEASUREMENTS, credit=credit),
+            topics.SIM_TRUTH: life.publisher(topics.SIM_TRUTH),
+            topics.SIM_FAULTS: life.publisher(topics.SIM_FAULTS),
         }
-        status_pub = tp.Publisher(session, run_id, topics.SIM_STATUS)
-        try:
-            status_pub.put(_status(run, run_id, "start", {"measurements": len(run.measurements)}, run.t_start))
-            wall0 = time.monotonic()
-            n = max(len(run.measurements), 1)
-            sent = 0
-            next_progress = 0.0
-            for topic, msg in run.iter_messages():
-                if rate is not None:
-                    due = wall0 + (msg.t_s - run.t_start) / rate
-                    delay = due - time.monotonic()
-                    if delay > 0:
-                        time.sleep(delay)
-                pubs[topic].put(msg)
-                if topic == topics.SIM_MEASUREMENTS:
-                    sent += 1
-                    if progress is not None and time.monotonic() >= next_progress:
-                        progress(sent / n)
-                        next_progress = time.monotonic() + 1.0
-            counts = tp.end_of_run_counts(pubs.values(), measurements=pubs[topics.SIM_MEASUREMENTS].count)
-            end = _status(run, run_id, "end-of-run", counts, run.t_end)
-            status_pub.put(end)
-            done = tp.drain(session, run_id, end, consumers, timeout_s=max(wait_s, 30.0))
-            missing = [c for c, ok in done.items() if not ok]
-            if missing:
-                raise tp.TransportError(f"no end-of-stream confirmation from {', '.join(missing)}")
-            if progress is not None:
-                progress(1.0)
-            return counts
-        finally:
-            for p in (*pubs.values(), status_pub):
-                p.close()
+        life.put(topics.SIM_STATUS, _status(run, run_id, "start", {"measurements": len(run.measurements)}, run.t_start))
+        wall0 = time.monotonic()
+        n = max(len(run.measurements), 1)
+        sent = 0
+        next_progress = 0.0
+        for topic, msg in run.iter_messages():
+            if rate is not None:
+                due = wall0 + (msg.t_s - run.t_start) / rate
+                delay = due - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            pubs[topic].put(msg)
+            if topic == topics.SIM_MEASUREMENTS:
+                sent += 1
+                if progress is not None and time.monotonic() >= next_progress:
+                    progress(sent / n)
+                    next_progress = time.monotonic() + 1.0
+        counts = tp.end_of_run_counts(pubs.values(), measurements=pubs[topics.SIM_MEASUREMENTS].count)
+        life.end_of_stream(topics.SIM_STATUS, _status(run, run_id, "end-of-run", counts, run.t_end), consumers,
+                           timeout_s=max(wait_s, 30.0))
+        if progress is not None:
+            progress(1.0)
+        return counts
 
 
 def print_progress(prefix: str) -> Callable[[float], None]:

@@ -10,7 +10,8 @@ import time
 
 import pytest
 
-from fsw.interface import codec, messages as m, topics, transport as tp
+from fsw import transport as tp
+from fsw.interface import codec, messages as m, topics
 from sim.stream import generate
 from tools.scenario import load_scenario, resolve
 

@@ -1,6 +1,7 @@
 """DESIGN.md's import rule is the architecture: check it on the source, not by convention."""
 
 import ast
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,12 +40,26 @@ def test_fsw_interface_and_astro_stay_at_the_bottom():
     assert _violations("fsw/astro", lambda n: _under(n, "fsw.interface", "fsw.astro")) == []
 
 
-def test_sim_uses_only_the_icd_and_astro_of_fsw():
-    assert _violations("sim", lambda n: _under(n, "sim", "fsw.interface", "fsw.astro")) == []
+def test_sim_uses_only_the_icd_transport_and_astro_of_fsw():
+    assert _violations("sim", lambda n: _under(n, "sim", "fsw.interface", "fsw.transport", "fsw.astro")) == []
 
 
 def test_ground_uses_fsw_but_not_sim_or_tools():
     assert _violations("ground", lambda n: _under(n, "ground", "fsw")) == []
+
+
+def _outside(package: str, *allowed: str) -> list[str]:
+    """Imports of ``package`` that are neither the standard library nor under ``allowed``."""
+    return [f"{path.relative_to(ROOT)}:{line}: imports {name}" for path, line, name in _imports(package)
+            if name.split(".")[0] not in sys.stdlib_module_names and not _under(name, *allowed)]
+
+
+def test_fsw_interface_imports_only_stdlib_numpy_and_yaml():
+    assert _outside("fsw/interface", "fsw.interface", "numpy", "yaml") == []
+
+
+def test_fsw_transport_imports_only_stdlib_numpy_zenoh_and_the_icd():
+    assert _outside("fsw/transport", "fsw.transport", "fsw.interface", "numpy", "zenoh") == []
 
 
 def test_the_rule_checker_catches_a_violation(tmp_path, monkeypatch):

@@ -14,8 +14,8 @@ import jsonschema
 import pytest
 from mcap.reader import make_reader
 
+from fsw import transport as T
 from fsw.interface import messages as m
-from fsw.interface import transport as T
 from ground.logger import run_logger
 from ground.mcap_io import is_complete, read_messages, recover, summary
 
@@ -161,7 +161,7 @@ def streaming_sim(cfg, run: str, rate_hz: float, duration_s: float, ready) -> No
 
 def _logger_cli(run: str, path: str, port: int) -> subprocess.Popen:
     return subprocess.Popen(
-        [sys.executable, "-m", "ground.logger", "--run-id", run, "--out", path, "--listen", f"tcp/127.0.0.1:{port}", "--no-wait-end",
+        [sys.executable, "-m", "tools.cli", "ground", "log", "--run-id", run, "--out", path, "--listen", f"tcp/127.0.0.1:{port}", "--no-wait-end",
          "--flush-interval", "0.5"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )

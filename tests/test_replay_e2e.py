@@ -9,9 +9,9 @@ import sys
 
 import pytest
 
+from fsw import transport as T
 from fsw.interface import codec
 from fsw.interface import messages as m
-from fsw.interface import transport as T
 from ground.logger import run_logger
 from ground.replay.recording import iter_raw
 

@@ -8,9 +8,9 @@ import time
 
 import pytest
 
+from fsw import transport as T
 from fsw.interface import codec
 from fsw.interface import messages as m
-from fsw.interface import transport as T
 from fsw.interface.yamlconfig import ConfigError
 from ground.mcap_io import McapRecorder
 from ground.replay.compare import compare_messages, compare_runs, flatten

@@ -8,8 +8,8 @@ import random
 
 import pytest
 
+from fsw import transport as T
 from fsw.interface import messages as m
-from fsw.interface import transport as T
 
 RUN = "cmd-test"
 CTX = mp.get_context("spawn")

@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from fsw.interface import transport as T
+from fsw import transport as T
 
 
 def test_defaults_are_loopback_peer_without_multicast():
@@ -56,15 +56,6 @@ def test_mesh_connects_each_role_to_the_earlier_ones():
     assert cfgs["fsw"].connect == ("tcp/127.0.0.1:7001",)
     assert cfgs["sim"].connect == ("tcp/127.0.0.1:7001", "tcp/127.0.0.1:7002")
     assert len(set(T.free_tcp_ports(3))) == 3
-
-
-def test_cli_arguments_round_trip():
-    import argparse
-
-    p = argparse.ArgumentParser()
-    T.add_transport_arguments(p)
-    cfg = T.transport_config_from_args(p.parse_args(["--connect", "tcp/127.0.0.1:7447", "--no-gossip"]))
-    assert cfg.connect == ("tcp/127.0.0.1:7447",) and not cfg.gossip and cfg.listen == ("tcp/127.0.0.1:0",)
 
 
 def test_publisher_rejects_wrong_types_and_unknown_topics():

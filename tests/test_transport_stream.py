@@ -12,8 +12,8 @@ import time
 
 import pytest
 
+from fsw import transport as T
 from fsw.interface import messages as m
-from fsw.interface import transport as T
 
 RUN = "stream-test"
 CTX = mp.get_context("spawn")

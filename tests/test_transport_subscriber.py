@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import zenoh
 
+from fsw import transport as T
 from fsw.interface import codec, topics
 from fsw.interface import messages as m
-from fsw.interface import transport as T
 
 RUN = "sub-test"
 

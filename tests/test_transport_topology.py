@@ -6,8 +6,8 @@ import multiprocessing as mp
 import queue
 import time
 
+from fsw import transport as T
 from fsw.interface import messages as m
-from fsw.interface import transport as T
 from ground.logger import run_logger
 from ground.mcap_io import summary
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Callable
 
-from fsw.interface.transport import free_tcp_ports
+from fsw.transport import free_tcp_ports
 from tools.scenario import ScenarioConfig, to_yaml
 
 ROLES = ("ground", "fsw", "sim")  # start order: each connects to the ones before it

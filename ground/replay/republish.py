@@ -20,7 +20,7 @@ The recorded end-of-run statuses of the simulator and the FSW are replayed like 
 Then the replay publishes its own ``RunStatus(source="replay", state="end-of-run")`` on
 ``ground/status`` whose ``counts`` hold the number of messages it sent per topic (keys with
 ``/``) and ``messages`` in total, and — if consumers were named — drains into each of them
-(:func:`fsw.interface.transport.drain`), so a consumer can confirm it has taken every message.
+(:func:`fsw.transport.drain`), so a consumer can confirm it has taken every message.
 A second logger therefore ends
 
 * with ``--producers replay``: as soon as it has the replay's end-of-run status and everything
@@ -29,7 +29,7 @@ A second logger therefore ends
   counts they announce have arrived, after its linger (2 s) because no live sim or FSW drains
   into it. Messages replayed after the FSW's end-of-run within that linger are still recorded.
 
-With consumers named, each topic also gets a :class:`~fsw.interface.transport.CreditWindow` per
+With consumers named, each topic also gets a :class:`~fsw.transport.CreditWindow` per
 consumer, so a fast replay never runs more than a window ahead of what a slow consumer has
 taken (no loss at ``--fast`` however long the run).
 """
@@ -44,14 +44,13 @@ from typing import Any
 
 import zenoh
 
+import fsw.transport as tp
 from fsw.interface import codec, topics
-from fsw.interface import transport as tp
 from fsw.interface.messages import RunStatus, Stamp
 from ground.replay.recording import RecordingError, iter_raw, run_info
 
 #: Topic of the replay's own end-of-run status (an ICD RunStatus topic, so subscribers track it).
 REPLAY_STATUS_TOPIC = topics.GROUND_STATUS
-_SEQ_BYTES = 8
 
 
 class _JsonPublisher:
@@ -71,7 +70,7 @@ class _JsonPublisher:
     def put_payload(self, payload: bytes) -> None:
         for window in self.credit:
             window.wait(self.count)
-        self._pub.put(payload, attachment=self.count.to_bytes(_SEQ_BYTES, "little"))
+        self._pub.put(payload, attachment=tp.sequence_attachment(self.count))
         self.count += 1
 
     def close(self) -> None:
@@ -159,78 +158,70 @@ def republish(
     n_topics = len({t for t in info.counts}) + 1
     window = credit_window if credit_window is not None else max(64, 8192 // n_topics)
     result = ReplayResult(run_id=run_id, source_run_id=info.run_id)
-    pubs: dict[str, Any] = {}
     last_status: RunStatus | None = None
     t_wall0 = time.monotonic()
-    with tp.open_session(transport_cfg) as session:
-        try:
-            if consumers:
-                tp.wait_for_consumers(session, run_id, consumers, timeout_s=consumer_timeout_s)
+    # Signals keep their default action: an interrupted replay has nothing to finish (it only reads the recording).
+    with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=False) as life:
+        life.wait_for_consumers(consumers, timeout_s=consumer_timeout_s)
 
-            def publisher(topic: str) -> Any:
-                pub = pubs.get(topic)
-                if pub is None:
-                    credit = [tp.CreditWindow(session, run_id, c, topic, window=window) for c in consumers]
-                    pub = pubs[topic] = _publisher_for(session, run_id, topic, credit)
-                return pub
+        def make_publisher(topic: str) -> Any:
+            credit = [tp.CreditWindow(life.session, run_id, c, topic, window=window) for c in consumers]
+            return _publisher_for(life.session, run_id, topic, credit)
 
-            log0: int | None = None
-            last_log = 0
-            done = 0
-            next_progress = time.monotonic() + progress_every_s
-            t_start = time.monotonic()
-            for msg in iter_raw(path):
-                if stop_event is not None and stop_event.is_set():
-                    result.stopped = True
-                    break
-                if log0 is None:
-                    log0 = msg.log_time_ns
-                last_log = max(last_log, msg.log_time_ns)
-                if rate > 0.0:
-                    due = t_start + (msg.log_time_ns - log0) / 1e9 / rate
-                    wait = due - time.monotonic()
-                    if wait > 0:
-                        time.sleep(wait)
-                topic = msg.zenoh_topic
-                publisher(topic).put_payload(msg.data)
-                done += 1
-                if topic.endswith("/status"):
-                    status = _last_status(msg.data)
-                    if status is not None:
-                        last_status = status
-                now = time.monotonic()
-                if progress is not None and now >= next_progress:
-                    next_progress = now + progress_every_s
-                    span = (last_log - log0) / 1e9
-                    progress(f"replay: {done}/{total} messages ({100.0 * done / total:5.1f} %), "
-                             f"recorded time +{span:.1f} s, wall {now - t_wall0:.1f} s")
-            result.replayed = done
-            result.recorded_span_s = 0.0 if log0 is None else (last_log - log0) / 1e9
-            status_pub = publisher(REPLAY_STATUS_TOPIC)
-            result.counts = {t: p.count for t, p in pubs.items() if p.count}
-            counts = tp.end_of_run_counts(pubs.values(), messages=done)
-            end = RunStatus(
-                t_s=last_status.t_s if last_status is not None else 0.0,
-                timestamp=last_status.timestamp if last_status is not None else Stamp.from_unix(time.time()),
-                run_id=run_id,
-                source="replay",
-                state="error" if result.stopped else "end-of-run",
-                counts=counts,
-                message=f"replay of run {info.run_id or '?'} from {os.path.basename(info.path)} at rate {rate:g}",
-            )
-            status_pub.put_payload(codec.to_json(end))
-            result.counts = {t: p.count for t, p in pubs.items() if p.count}
-            if progress is not None:
-                progress(f"replay: {done}/{total} messages sent, end-of-run published")
-            if consumers and not result.stopped:
-                result.drained = tp.drain(session, run_id, end, consumers, timeout_s=drain_timeout_s)
-            else:
-                time.sleep(linger_s)
-        finally:
-            for p in pubs.values():
-                try:
-                    p.close()
-                except zenoh.ZError:
-                    pass
+        def publisher(topic: str) -> Any:
+            return life.publisher(topic, make=make_publisher)
+
+        log0: int | None = None
+        last_log = 0
+        done = 0
+        next_progress = time.monotonic() + progress_every_s
+        t_start = time.monotonic()
+        for msg in iter_raw(path):
+            if life.should_stop():
+                result.stopped = True
+                break
+            if log0 is None:
+                log0 = msg.log_time_ns
+            last_log = max(last_log, msg.log_time_ns)
+            if rate > 0.0:
+                due = t_start + (msg.log_time_ns - log0) / 1e9 / rate
+                wait = due - time.monotonic()
+                if wait > 0:
+                    time.sleep(wait)
+            topic = msg.zenoh_topic
+            publisher(topic).put_payload(msg.data)
+            done += 1
+            if topic.endswith("/status"):
+                status = _last_status(msg.data)
+                if status is not None:
+                    last_status = status
+            now = time.monotonic()
+            if progress is not None and now >= next_progress:
+                next_progress = now + progress_every_s
+                span = (last_log - log0) / 1e9
+                progress(f"replay: {done}/{total} messages ({100.0 * done / total:5.1f} %), "
+                         f"recorded time +{span:.1f} s, wall {now - t_wall0:.1f} s")
+        result.replayed = done
+        result.recorded_span_s = 0.0 if log0 is None else (last_log - log0) / 1e9
+        publisher(REPLAY_STATUS_TOPIC)  # declared before counting, so the counts name its topic
+        counts = tp.end_of_run_counts(life.publishers.values(), messages=done)
+        end = RunStatus(
+            t_s=last_status.t_s if last_status is not None else 0.0,
+            timestamp=last_status.timestamp if last_status is not None else Stamp.from_unix(time.time()),
+            run_id=run_id,
+            source="replay",
+            state="error" if result.stopped else "end-of-run",
+            counts=counts,
+            message=f"replay of run {info.run_id or '?'} from {os.path.basename(info.path)} at rate {rate:g}",
+        )
+        life.announce_end(REPLAY_STATUS_TOPIC, end)
+        result.counts = {t: p.count for t, p in life.publishers.items() if p.count}
+        if progress is not None:
+            progress(f"replay: {done}/{total} messages sent, end-of-run published")
+        if consumers and not result.stopped:
+            # a consumer that did not confirm is reported, not raised: the replay itself went through
+            result.drained = life.confirm_end(end, consumers, timeout_s=drain_timeout_s, require_all=False)
+        else:
+            time.sleep(linger_s)
     result.elapsed_s = time.monotonic() - t_wall0
     return result

@@ -5,9 +5,10 @@ from __future__ import annotations
 import sys
 import time
 
+import fsw.transport as tp
 from fsw.app import run_fsw, stderr_progress
-from fsw.interface import transport as tp
 from tools.commands.common import add_scenario_arguments, run_id_arg, scenario_from_args
+from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 from tools.scenario import resolve
 
 NAME = "fsw"
@@ -25,14 +26,14 @@ def add_arguments(p) -> None:
     p.add_argument("--consumers", default="ground", metavar="LIST", help="roles that must confirm the end of the telemetry (default ground)")
     p.add_argument("--idle-timeout", type=float, default=None, metavar="S", help="give up after S seconds without data")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    tp.add_transport_arguments(p)
+    add_transport_arguments(p)
 
 
 def run(args) -> int:
     cfg, _ = resolve(scenario_from_args(args), args.seed)
     consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
     try:
-        counts = run_fsw(cfg.fsw, args.run_id, tp.transport_config_from_args(args), consumers=consumers,
+        counts = run_fsw(cfg.fsw, args.run_id, transport_config_from_args(args), consumers=consumers,
                          progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout)
     except tp.TransportError as exc:
         print(f"navbank fsw: {exc}", file=sys.stderr)

@@ -5,7 +5,9 @@ from __future__ import annotations
 import sys
 import time
 
+from fsw.transport import TransportError
 from ground import logger
+from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 
 NAME = "ground"
 HELP = "ground tools: `navbank ground log` records a run to MCAP"
@@ -17,12 +19,49 @@ have ended their streams, or until SIGINT/SIGTERM (the file is always finished p
 def add_arguments(p) -> None:
     sub = p.add_subparsers(dest="ground_command", metavar="TOOL", required=True)
     log = sub.add_parser("log", help="record a run to one MCAP file", description=logger.__doc__)
-    logger.add_arguments(log)
+    _add_log_arguments(log)
+
+
+def _add_log_arguments(parser) -> None:
+    """Options of ``navbank ground log``."""
+    parser.add_argument("--run-id", required=True, help="run to record (Zenoh keys navbank/<run-id>/**)")
+    parser.add_argument("--out", required=True, metavar="FILE", help="MCAP file to write")
+    parser.add_argument("--producers", default="sim,fsw", metavar="LIST",
+                        help="comma-separated processes whose end-of-run ends the recording (default sim,fsw)")
+    parser.add_argument("--no-wait-end", action="store_true", help="ignore end-of-run; record until SIGINT/SIGTERM or --duration")
+    parser.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S seconds")
+    parser.add_argument("--attach", action="append", default=[], metavar="FILE", help="attach a file, e.g. the scenario YAML (repeatable)")
+    parser.add_argument("--no-validate", action="store_true", help="record without strict ICD decoding (faster)")
+    parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
+                        help="close the open chunk at least every S seconds (data lost on SIGKILL, default 0.5)")
+    add_transport_arguments(parser)
+
+
+def _log(args) -> int:
+    """Run ``navbank ground log``; 0 on success, 1 if the network or the file failed."""
+    try:
+        cfg = transport_config_from_args(args)
+        producers = tuple(p.strip() for p in args.producers.split(",") if p.strip())
+        logger.run_logger(
+            args.run_id,
+            args.out,
+            cfg,
+            producers=producers,
+            until_end_of_run=not args.no_wait_end and bool(producers),
+            max_duration_s=args.duration,
+            validate=not args.no_validate,
+            attachments=args.attach,
+            flush_interval_s=args.flush_interval,
+        )
+    except (TransportError, ValueError, OSError) as exc:
+        print(f"navbank ground log: {exc}", file=sys.stderr)
+        return 1
+    return 0
 
 
 def run(args) -> int:
     if args.ground_command == "log":
-        rc = logger.main(args)
+        rc = _log(args)
         print(f"ground log: process CPU {time.process_time():.1f} s", file=sys.stderr)
         return rc
     return 2

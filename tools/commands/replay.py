@@ -7,10 +7,11 @@ import json
 import math
 import sys
 
+import fsw.transport as tp
 from fsw.interface import topics
-from fsw.interface import transport as tp
 from fsw.interface.yamlconfig import ConfigError
 from tools.commands.common import new_run_id
+from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 
 NAME = "replay"
 HELP = "republish a recorded run over Zenoh, or re-run its FSW on the recorded measurements (--rerun)"
@@ -64,7 +65,7 @@ def add_arguments(p) -> None:
     g.add_argument("--consumer-timeout", type=float, default=30.0, metavar="S",
                    help="seconds to wait for the consumers to appear (default 30)")
     g.add_argument("--quiet", action="store_true", help="no progress lines")
-    tp.add_transport_arguments(p)
+    add_transport_arguments(p)
     r = p.add_argument_group("re-run the FSW (--rerun)")
     r.add_argument("--rerun", action="store_true", help="re-run the FSW on the recorded measurements and diff its telemetry")
     r.add_argument("--set", dest="overrides", action="append", default=[], metavar="fsw.PATH=VALUE",
@@ -117,7 +118,7 @@ def _republish(args) -> int:
     print(f"navbank replay: {args.mcap} -> run {run_id} at rate {rate:g}"
           + (f", consumers {', '.join(consumers)}" if consumers else ""), file=sys.stderr)
     try:
-        res = republish(args.mcap, run_id, tp.transport_config_from_args(args), rate=rate, consumers=consumers,
+        res = republish(args.mcap, run_id, transport_config_from_args(args), rate=rate, consumers=consumers,
                         consumer_timeout_s=args.consumer_timeout, progress=progress)
     except (RecordingError, McapReadError) as exc:
         return _fail(str(exc))

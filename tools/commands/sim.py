@@ -5,10 +5,11 @@ from __future__ import annotations
 import sys
 import time
 
-from fsw.interface import transport as tp
+import fsw.transport as tp
 from sim.stream import generate
 from tools.cli import UsageError
 from tools.commands.common import ProgressBar, add_scenario_arguments, run_id_arg, scenario_from_args
+from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 from tools.scenario import resolve
 
 NAME = "sim"
@@ -27,7 +28,7 @@ def add_arguments(p) -> None:
     p.add_argument("--consumers", default="fsw,ground", metavar="LIST",
                    help="roles that must be up before publishing and confirm the end (default fsw,ground)")
     p.add_argument("--window", type=int, default=2000, metavar="N", help="credit window: measurements ahead of the FSW (default 2000)")
-    tp.add_transport_arguments(p)
+    add_transport_arguments(p)
 
 
 def _write(run, path: str) -> int:
@@ -71,7 +72,7 @@ def run(args) -> int:
 
         consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
         try:
-            counts = publish_run(run_, args.run_id, tp.transport_config_from_args(args), consumers=consumers,
+            counts = publish_run(run_, args.run_id, transport_config_from_args(args), consumers=consumers,
                                  credit_role="fsw" if "fsw" in consumers else None, window=args.window,
                                  rate=args.rate, progress=ProgressBar("sim"))
         except tp.TransportError as exc:

@@ -1,0 +1,163 @@
+"""Flow control between a producer and its consumers, all through the consumers' progress queryable.
+
+* **Readiness.** :func:`wait_for_consumers` returns once every consumer answers its progress
+  queryable; the queryable is declared after the consumer's subscriptions, so its subscriptions
+  are up by then and the first message is not lost.
+* **No loss when a consumer stalls** (BLOCK congestion control gives up after ~5 s and the link
+  drops what is in flight): :class:`CreditWindow` keeps a producer at most ``window`` messages
+  ahead of what a consumer has *taken* from its FIFO, as the consumer reports through its
+  progress queryable.
+* **No loss at close** (closing a session right after the last put loses the messages in
+  flight): the end-of-stream handshake, :func:`drain`.
+
+Progress queryable and end-of-stream handshake
+----------------------------------------------
+A consumer's :class:`~fsw.transport.pubsub.Subscriber` created with ``role=...`` answers queries
+on ``navbank/<run>/<role>/progress`` with a :class:`~fsw.interface.messages.RunStatus` whose
+``counts`` hold, per topic, the messages taken from its channels so far.
+
+A producer ends a run by publishing its end-of-run ``RunStatus`` whose ``counts`` carry, for every
+topic it published, the number of messages (keys containing ``/`` are topic counts; other keys are
+free-form counters). It then calls :func:`drain`, which sends that same status as the payload of a
+progress query to each consumer until each one replies ``counts["complete"] == 1`` — i.e. it has
+taken at least the announced number of messages on every announced topic it subscribes to.
+Only then may the producer close its session. The consumer remembers which producers it has
+acknowledged (``Subscriber.acknowledged``), so it can itself close once every producer it waits
+for has both ended (``Subscriber.finished``) and been told so; a short linger after the last
+reply lets that reply leave before the session closes.
+"""
+
+from __future__ import annotations
+
+import time
+import typing
+from collections.abc import Iterable
+from typing import Any
+
+import zenoh
+
+from fsw.interface import codec, topics
+from fsw.interface.messages import RunStatus
+from fsw.transport import wire
+from fsw.transport.session import TransportError
+
+#: Roles that may serve a progress queryable (the ``source`` values of RunStatus).
+ROLES: tuple[str, ...] = typing.get_args(typing.get_type_hints(RunStatus)["source"])
+PROGRESS = "progress"  # navbank/<run>/<role>/progress: consumer progress queryable
+COMPLETE = "complete"  # counts key of a progress reply: 1 when the producer's stream is complete
+
+
+def query_progress(
+    session: zenoh.Session, run_id: str, role: str, status: RunStatus | None = None, timeout_s: float = 1.0
+) -> RunStatus | None:
+    """Ask consumer ``role`` for its progress (None if nobody answered in time)."""
+    kwargs: dict[str, Any] = {"timeout": timeout_s}
+    if status is not None:
+        kwargs["payload"] = codec.to_json(status)
+        kwargs["encoding"] = wire.encoding(RunStatus)
+    answer = None
+    for reply in session.get(topics.key(run_id, f"{role}/{PROGRESS}"), **kwargs):
+        if reply.ok is not None and answer is None:
+            try:
+                answer = codec.from_json(RunStatus, reply.ok.payload.to_bytes())
+            except codec.ICDError:
+                continue
+    return answer
+
+
+def wait_for_consumers(session: zenoh.Session, run_id: str, roles: Iterable[str], timeout_s: float = 30.0) -> None:
+    """Block until every consumer role answers its progress queryable (its subscriptions are up)."""
+    pending = list(roles)
+    deadline = time.monotonic() + timeout_s
+    while pending:
+        pending = [r for r in pending if query_progress(session, run_id, r, timeout_s=0.5) is None]
+        if not pending:
+            return
+        if time.monotonic() > deadline:
+            raise TransportError(f"run {run_id}: no answer from {', '.join(pending)} within {timeout_s:g} s")
+        time.sleep(0.05)
+
+
+class CreditWindow:
+    """Keeps a producer at most ``window`` messages of ``topic`` ahead of consumer ``role``.
+
+    The consumer's FIFO capacity must exceed ``window``: then its channel never fills, the Zenoh
+    link never blocks, and BLOCK's 5 s give-up never triggers, however long the consumer stalls.
+    The progress queryable is asked only when the window is used up, so a keeping-up consumer
+    costs about one query per ``window`` messages. ``stall_timeout_s`` (None: wait forever)
+    bounds how long the producer waits without any progress before raising
+    :class:`TransportError`.
+    """
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        run_id: str,
+        role: str,
+        topic: str,
+        window: int = 1000,
+        *,
+        stall_timeout_s: float | None = 120.0,
+        poll_s: float = 0.005,
+    ):
+        if window < 1:
+            raise ValueError("window must be >= 1")
+        self.session, self.run_id, self.role = session, run_id, role
+        self.topic = topic.strip("/")
+        self.window = window
+        self.stall_timeout_s = stall_timeout_s
+        self.poll_s = poll_s
+        self.taken = 0  # consumer's last reported count on topic
+        self.waits = 0  # number of times the window was exhausted
+        self.queries = 0
+
+    def wait(self, published: int) -> None:
+        """Return when message number ``published`` (0-based) may be sent."""
+        if published - self.taken < self.window:
+            return
+        self.waits += 1
+        last_progress = time.monotonic()
+        pause = self.poll_s
+        while True:
+            self.queries += 1
+            reply = query_progress(self.session, self.run_id, self.role, timeout_s=1.0)
+            if reply is not None:
+                taken = reply.counts.get(self.topic, 0)
+                if taken > self.taken:
+                    self.taken = taken
+                    last_progress = time.monotonic()
+                    pause = self.poll_s
+                if published - self.taken < self.window:
+                    return
+            if self.stall_timeout_s is not None and time.monotonic() - last_progress > self.stall_timeout_s:
+                raise TransportError(
+                    f"{self.role} took no {self.topic} message for {self.stall_timeout_s:g} s "
+                    f"(taken {self.taken}, published {published})"
+                )
+            time.sleep(pause)
+            pause = min(pause * 2, 0.1)
+
+
+def drain(
+    session: zenoh.Session, run_id: str, status: RunStatus, consumers: Iterable[str], timeout_s: float = 30.0
+) -> dict[str, bool]:
+    """End-of-stream handshake: wait until every consumer confirms it has taken what ``status`` announces.
+
+    ``status`` is the end-of-run RunStatus just published (counts per topic). Returns, per
+    consumer, whether it confirmed within ``timeout_s``. Close the session only afterwards.
+    """
+    pending = list(consumers)
+    done = {c: False for c in pending}
+    deadline = time.monotonic() + timeout_s
+    pause = 0.005
+    while pending:
+        for c in list(pending):
+            reply = query_progress(session, run_id, c, status, timeout_s=1.0)
+            if reply is not None and reply.counts.get(COMPLETE) == 1:
+                done[c] = True
+                pending.remove(c)
+        if not pending or time.monotonic() > deadline:
+            break
+        time.sleep(pause)
+        pause = min(pause * 2, 0.1)
+    return done
