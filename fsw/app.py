@@ -99,10 +99,8 @@ def run_fsw(
                     if progress is not None and now >= next_progress:
                         next_progress = now + 2.0
                         progress(_progress_line(core))
-                core.finish(emit_end=False)
-                # announce the per-topic counts so the logger can confirm it has everything
-                end = core.end_status(tp.end_of_run_counts(tel.pubs.values()))
-                tel(topics.FSW_STATUS, end)
+                # its end-of-run status announces the per-topic counts so the logger can confirm it has everything
+                end = core.finish()
                 counts = dict(end.counts)
                 done = tp.drain(session, run_id, end, consumers, timeout_s=30.0)
                 missing = [c for c, ok in done.items() if not ok]

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Literal, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -31,8 +31,7 @@ from fsw.fdir.families import FilterFamily, ordered_families
 from fsw.fdir.persistence import KOfN
 from fsw.fdir.statistic import NominalBand
 from fsw.gating.base import WeightsUpdate
-
-AnomalyClass = Literal["none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown"]
+from fsw.interface.messages import AnomalyClass
 
 SUM_TOLERANCE = 1.0e-6
 
