@@ -65,6 +65,17 @@ class AnomalyState:
 class AnomalyDetector:
     """Detector for one gating network; feed it every weight update of that network."""
 
+    # the declaration in progress, (re)set by _rearm
+    _flag: bool
+    _declared_t: float | None
+    _onset_t: float | None
+    _cusum: float
+    _sum_w: np.ndarray
+    _count_w: int
+    _below: int
+    _window: KOfN
+    _batches: int
+
     def __init__(self, config: DetectorConfig, families: Sequence[FilterFamily]):
         self.config = config
         self.families = ordered_families(families, config.filters)
@@ -143,8 +154,8 @@ class AnomalyDetector:
 
     def _rearm(self, keep_warmup: bool = False) -> None:
         self._flag = False
-        self._declared_t: float | None = None
-        self._onset_t: float | None = None
+        self._declared_t = None
+        self._onset_t = None
         self._cusum = 0.0
         self._sum_w = np.zeros(self._n)
         self._count_w = 0
