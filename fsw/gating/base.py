@@ -11,8 +11,9 @@ Rules shared by all networks (enforced here, so each network only writes its own
 * the record's filter names must be the network's, in the same order; arrays must have the
   shapes the record declares and be finite — otherwise :class:`GatingInputError`;
 * parameters are a frozen config dataclass (``fsw.interface.typed.spec`` fields), validated on
-  construction and by :meth:`GatingNetwork.set_param`, which raises
-  :class:`UnknownParameterError` / :class:`InvalidParameterError`;
+  construction and by :meth:`GatingNetwork.validate_param` (which :meth:`GatingNetwork.set_param`
+  calls before changing anything), raising :class:`UnknownParameterError` /
+  :class:`InvalidParameterError`;
 * when a filter is disabled its weight goes to zero and the others are renormalised; when it is
   enabled again it re-enters with the a-priori share 1/N_active and the others are scaled down to
   make room (:func:`reenter_probabilities`), so no network needs an infinite time to trust it.
