@@ -73,12 +73,12 @@ def run_fsw(
                 next_progress = now + 2.0
                 progress(_progress_line(core))
 
-        core.finish(emit_end=False)
-        # announce the per-topic counts so the logger can confirm it has everything
-        end = core.end_status(tp.end_of_run_counts(life.publishers.values()))
+        # the core publishes its end-of-run status, whose per-topic counts let the logger
+        # confirm it has everything
+        end = core.finish()
         counts = dict(end.counts)
 
-        life.end_of_stream(topics.FSW_STATUS, end, consumers, timeout_s=30.0)
+        life.confirm_end(end, consumers, timeout_s=30.0)
         # stay until the producer has been told we have everything (its drain), or a while
         life.wait_acknowledged(sub, [producer], timeout_s=15.0)
         if progress is not None:

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import json
-from types import SimpleNamespace
 
 import pytest
 
+from fsw.core import stamp
 from fsw.fdir.config import DetectorConfig, config_to_yaml
+from fsw.interface import messages as m
 from fsw.interface.yamlconfig import ConfigError
 from tools.campaign.plan import expand
 from tools.campaign.report import render
@@ -63,8 +64,8 @@ def _write(tmp_path, campaign: str = CAMPAIGN):
 # -- the anomaly block, one definition for the onboard detector and the monitors -----------------
 
 def _report(t, flag, cls="none", onset=None, declared=None, conf=0.0):
-    return SimpleNamespace(t_s=t, flag=flag, anomaly_class=cls, confidence=conf, onset_s=onset, declared_s=declared,
-                           network="n")
+    return m.AnomalyReport(t_s=t, timestamp=stamp(t), flag=flag, anomaly_class=cls, confidence=conf, onset_s=onset,
+                           declared_s=declared, network="n")
 
 
 def test_anomaly_block_by_hand():
@@ -155,6 +156,48 @@ def test_replayed_detector_equals_the_onboard_one_on_a_real_run(tmp_path):
     for net in ("chi2-two-sided", "magill"):
         assert set(s["monitors"][net]) >= set(onboard) - {"first_class", "latency_day"}
         assert s["monitors"][net]["network"] == net and s["monitors"][net]["detector"]
+
+
+LAGGING = """\
+name: lag
+seed: 2
+sim:
+  trajectory: {span_days: 2.0}
+  faults:
+    - {type: optical-bias, onset_day: 1.0, sample_px: 20.0, line_px: 30.0}
+fsw:
+  budget: {mode: work-units, work_unit_budget: 15.0}
+  gating:
+    - {network: chi2, batch_size: 100}
+"""
+
+
+def test_replayed_declarations_are_dated_as_onboard_when_the_gating_lags():
+    """A starved budget makes the gating run hours after its data. Onboard, a declaration is
+    dated by the end of the frame that made it; the replay must date every declaration alike."""
+    import dataclasses
+
+    from tools.campaign.worker import replay_detector
+    from tools.inprocess import run_in_process
+    from tools.scenario import load_text_scenario
+
+    cal = _calibration("chi2")
+    cfg = load_text_scenario(LAGGING)
+    cfg = dataclasses.replace(cfg, fsw=dataclasses.replace(
+        cfg.fsw, detector=dataclasses.replace(cfg.fsw.detector, network="chi2", calibration=cal)))
+    result = run_in_process(cfg)
+    onboard = [r for r in result.topic("fsw/anomaly") if r.flag]
+    replayed = replay_detector(result.messages, cal, result.config.fsw.families(), result.summary["t0"])
+    assert all(isinstance(r, m.AnomalyReport) for r in replayed)
+    flagged = [r for r in replayed if r.flag]
+    assert onboard and flagged
+    # the first onboard report of a declaration is dated by its batch; the lag is many frames
+    assert onboard[0].declared_s - onboard[0].t_s > 10 * cfg.fsw.budget.frame_s
+    assert flagged[0].declared_s == onboard[0].declared_s
+    assert {r.declared_s for r in flagged} == {r.declared_s for r in onboard}
+    a = result.summary["anomaly"]
+    assert anomaly_summary(replayed, onset_true=a["onset_true"], true_class=a["true_class"],
+                           t0=result.summary["t0"]) == a
 
 
 # -- statistics per detector --------------------------------------------------------------------

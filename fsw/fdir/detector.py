@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Literal, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -31,8 +31,7 @@ from fsw.fdir.families import FilterFamily, ordered_families
 from fsw.fdir.persistence import KOfN
 from fsw.fdir.statistic import NominalBand
 from fsw.gating.base import WeightsUpdate
-
-AnomalyClass = Literal["none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown"]
+from fsw.interface.messages import AnomalyClass
 
 SUM_TOLERANCE = 1.0e-6
 
@@ -65,6 +64,17 @@ class AnomalyState:
 
 class AnomalyDetector:
     """Detector for one gating network; feed it every weight update of that network."""
+
+    # the declaration in progress, (re)set by _rearm
+    _flag: bool
+    _declared_t: float | None
+    _onset_t: float | None
+    _cusum: float
+    _sum_w: np.ndarray
+    _count_w: int
+    _below: int
+    _window: KOfN
+    _batches: int
 
     def __init__(self, config: DetectorConfig, families: Sequence[FilterFamily]):
         self.config = config
@@ -144,8 +154,8 @@ class AnomalyDetector:
 
     def _rearm(self, keep_warmup: bool = False) -> None:
         self._flag = False
-        self._declared_t: float | None = None
-        self._onset_t: float | None = None
+        self._declared_t = None
+        self._onset_t = None
         self._cusum = 0.0
         self._sum_w = np.zeros(self._n)
         self._count_w = 0

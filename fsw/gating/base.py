@@ -11,8 +11,9 @@ Rules shared by all networks (enforced here, so each network only writes its own
 * the record's filter names must be the network's, in the same order; arrays must have the
   shapes the record declares and be finite — otherwise :class:`GatingInputError`;
 * parameters are a frozen config dataclass (``fsw.interface.typed.spec`` fields), validated on
-  construction and by :meth:`GatingNetwork.set_param`, which raises
-  :class:`UnknownParameterError` / :class:`InvalidParameterError`;
+  construction and by :meth:`GatingNetwork.validate_param` (which :meth:`GatingNetwork.set_param`
+  calls before changing anything), raising :class:`UnknownParameterError` /
+  :class:`InvalidParameterError`;
 * when a filter is disabled its weight goes to zero and the others are renormalised; when it is
   enabled again it re-enters with the a-priori share 1/N_active and the others are scaled down to
   make room (:func:`reenter_probabilities`), so no network needs an infinite time to trust it.
@@ -219,8 +220,9 @@ class GatingNetwork(ABC):
     def _check_params(self, params: Any) -> None:
         """Cross-field and bank-dependent checks; raise :class:`InvalidParameterError`."""
 
-    def set_param(self, name: str, value: Any) -> None:
-        """Change one parameter (telecommand ``set-param``); takes effect from the next update.
+    def validate_param(self, name: str, value: Any) -> Any:
+        """The parameters ``set_param(name, value)`` would install, checked completely (types,
+        ranges, cross-field and bank-dependent rules); the network is not changed.
 
         Raises :class:`UnknownParameterError` for a name the network does not have and
         :class:`InvalidParameterError` for a value outside its declaration.
@@ -236,13 +238,26 @@ class GatingNetwork(ABC):
             new = typed.decode(self.params_type, data)
         except typed.DecodeError as exc:
             raise InvalidParameterError(f"{self.name}.{name}: {exc}") from None
-        new = self._validated(new)
+        return self._validated(new)
+
+    def install_params(self, params: Any) -> None:
+        """Install parameters checked by :meth:`validate_param`; take effect from the next update.
+
+        Everything that can reject a value is in the validation, so a telecommand addressing
+        several networks validates all of them before installing any."""
+        new = self._validated(params)
         old = self.params
         self.params = new
         self._params_changed(old, new)
 
+    def set_param(self, name: str, value: Any) -> None:
+        """Change one parameter (telecommand ``set-param``): :meth:`validate_param`, then
+        :meth:`install_params`. A rejected value changes nothing."""
+        self.install_params(self.validate_param(name, value))
+
     def _params_changed(self, old: Any, new: Any) -> None:
-        """Hook for networks whose state depends on a parameter (e.g. the memory matrix)."""
+        """Hook for networks whose state depends on a parameter (e.g. the memory matrix); must
+        not reject anything :meth:`_check_params` accepted."""
 
     # ------------------------------------------------------------------ records
     def _check_record(self, record: BankRecord) -> np.ndarray:
@@ -311,6 +326,12 @@ class GatingNetwork(ABC):
     def active(self) -> np.ndarray:
         """Active mask the network is currently using (N,)."""
         return self._active.copy()
+
+    def flush(self) -> WeightsUpdate | None:
+        """End of a data arc: weights from evidence held back so far, or None.
+
+        Per-measurement networks hold nothing back; batch networks close their partial batch."""
+        return None
 
     def reset(self) -> None:
         """Return to the a-priori weights (telecommand ``reset-gating``, seed 001 §3.2)."""

@@ -183,22 +183,25 @@ class Chi2Network(GatingNetwork):
     params_type = Chi2Params
 
     def _check_params(self, params: Any) -> None:
-        if params.memory_matrix:
-            W = np.asarray(params.memory_matrix, dtype=float)
-            if W.shape != (len(self.filters), len(self.filters)):
-                raise InvalidParameterError(
-                    f"memory_matrix must be {len(self.filters)}×{len(self.filters)}, got {W.shape}"
-                )
-            _memory_inverse(W)
+        W = self._memory_of(params)
+        if W.shape != (len(self.filters), len(self.filters)):
+            raise InvalidParameterError(
+                f"memory_matrix must be {len(self.filters)}×{len(self.filters)}, got {W.shape}"
+            )
+        # also σ_W² I: a σ_W so small that its square underflows gives a singular W̄
+        _memory_inverse(W)
         if params.prior:
             prior = np.asarray(params.prior, dtype=float)
             if prior.shape != (len(self.filters),) or abs(prior.sum() - 1.0) > 1e-9:
                 raise InvalidParameterError(f"prior needs {len(self.filters)} weights summing to 1")
 
     def _memory(self) -> np.ndarray:
-        if self.params.memory_matrix:
-            return np.asarray(self.params.memory_matrix, dtype=float)
-        return self.params.sigma_w**2 * np.eye(len(self.filters))
+        return self._memory_of(self.params)
+
+    def _memory_of(self, params: Any) -> np.ndarray:
+        if params.memory_matrix:
+            return np.asarray(params.memory_matrix, dtype=float)
+        return params.sigma_w**2 * np.eye(len(self.filters))
 
     def _params_changed(self, old: Any, new: Any) -> None:
         self._Winv = _memory_inverse(self._memory())

@@ -17,12 +17,10 @@ from __future__ import annotations
 
 import os
 import time
-from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any
 
 from fsw.config import FswConfig
-from fsw.core import FswCore
+from fsw.core import FswCore, FswMessage
 from fsw.interface import codec, topics
 from fsw.interface.messages import Measurement
 from ground.replay.recording import iter_raw
@@ -35,7 +33,7 @@ INVALID_MEASUREMENTS = "/_invalid" + MEASUREMENTS
 class RerunResult:
     """What the fresh FSW produced."""
 
-    outputs: list[tuple[str, Any]] = field(default_factory=list)  # (topic, message) in emission order
+    outputs: list[tuple[str, FswMessage]] = field(default_factory=list)  # (topic, message) in emission order
     measurements: int = 0  # decodable measurements fed
     undecodable: int = 0  # raw payloads fed that the core rejected as malformed
     elapsed_s: float = 0.0
@@ -60,15 +58,8 @@ def recorded_measurement_stream(path: str | os.PathLike) -> tuple[list[Measureme
 def rerun_fsw(config: FswConfig, stream: list[Measurement | bytes], run_id: str = "rerun") -> RerunResult:
     """Run ``config``'s FSW over ``stream`` the way the FSW process does; collect its telemetry."""
     result = RerunResult()
-    out = result.outputs
-    per_topic: Counter[str] = Counter()
-
-    def emit(topic: str, msg: Any) -> None:
-        per_topic[topic] += 1
-        out.append((topic, msg))
-
     t0 = time.monotonic()
-    core = FswCore(config, emit, run_id=run_id)
+    core = FswCore(config, lambda topic, msg: result.outputs.append((topic, msg)), run_id=run_id)
     core.start()
     for item in stream:
         if isinstance(item, Measurement):
@@ -77,8 +68,6 @@ def rerun_fsw(config: FswConfig, stream: list[Measurement | bytes], run_id: str 
         else:
             core.ingest_payload(item)
             result.undecodable += 1
-    core.finish(emit_end=False)
-    # the process announces its per-topic counts in the end-of-run status (fsw.app.run_fsw)
-    emit(topics.FSW_STATUS, core.end_status(dict(per_topic)))
+    core.finish()
     result.elapsed_s = time.monotonic() - t0
     return result

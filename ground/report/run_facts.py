@@ -8,12 +8,11 @@ either one. Only what the messages themselves carry is filled in: scenario and s
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
-from typing import Sequence
-
+from fsw.interface import messages as m
 from ground.report.run_data import DAY_S, RunData, declared_epoch
 
 
@@ -40,12 +39,13 @@ def _weights(data: RunData) -> dict[str, dict[str, Any]]:
     return out
 
 
-def anomaly_summary(reports: Sequence[Any], *, onset_true: float | None, true_class: str, t0: float) -> dict[str, Any]:
+def anomaly_summary(reports: Sequence[m.AnomalyReport], *, onset_true: float | None, true_class: str,
+                    t0: float) -> dict[str, Any]:
     """The ``anomaly`` block of a summary from a detector's reports, in time order.
 
-    ``reports`` are :class:`~fsw.interface.messages.AnomalyReport` messages (the onboard detector)
-    or anything with the same attributes ``t_s, flag, anomaly_class, confidence, onset_s,
-    declared_s, network`` (a detector replayed on the ground, ``summary["monitors"]``). The first
+    ``reports`` are the AnomalyReport messages of the onboard detector, or those of a detector
+    replayed on the ground through the same reporter (``summary["monitors"]``,
+    :func:`tools.campaign.worker.replay_detector`). The first
     flagged report gives the declaration epoch and the onset estimate; the class is the one the
     detector settled on (the last flagged report: it refines as evidence grows). A declaration
     before the true onset (or with none injected) is a false alarm, otherwise its latency is

@@ -21,13 +21,13 @@ import os
 import socket
 import time
 import traceback
-from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
 
 from fsw.fdir.config import DetectorConfig
-from fsw.fdir.detector import AnomalyDetector, AnomalyState
+from fsw.core.telemetry import AnomalyReporter
+from fsw.fdir.detector import AnomalyDetector
 from fsw.fdir.errors import FdirInputError
 from fsw.fdir.families import FilterFamily
 from fsw.interface import messages as m, topics, typed
@@ -60,64 +60,38 @@ def weight_history(result: RunResult, network: str) -> dict[str, Any]:
     }
 
 
-@dataclass(frozen=True)
-class ReplayedReport:
-    """A replayed detector's verdict after one batch, with the attributes of an AnomalyReport
-    that :func:`ground.report.run_facts.anomaly_summary` reads."""
+def replay_detector(messages: Sequence[tuple[str, object]], calibration: DetectorConfig,
+                    families: Sequence[FilterFamily], t_start: float) -> list[m.AnomalyReport]:
+    """The reports a detector on ``calibration.network`` would have given had it run onboard.
 
-    t_s: float
-    flag: bool
-    anomaly_class: str
-    confidence: float
-    onset_s: float | None
-    declared_s: float | None
-    network: str
-
-
-def replay_detector(messages: Sequence[tuple[str, Any]], calibration: DetectorConfig,
-                    families: Sequence[FilterFamily], t_start: float) -> list[ReplayedReport]:
-    """The verdicts of a detector on ``calibration.network`` had it run onboard in this run.
-
-    ``messages`` are the run's ``(topic, message)`` pairs in emission order. The detector sees
-    every FilterWeights of its network (all filters active, as in campaign runs). Onboard, a
-    declaration is known at the end of the frame whose gating stage made it (``fsw.core``: the
-    executive's clock), and that frame's BudgetReport is the next one emitted after the weights;
-    the replay dates each declaration the same way (the last frame end when none follows)."""
-    det = AnomalyDetector(calibration, families)
+    ``messages`` are the run's ``(topic, message)`` pairs in emission order. The network's
+    FilterWeights go, in order, through a fresh detector wrapped in the FSW's own
+    :class:`~fsw.core.telemetry.AnomalyReporter` (all filters active, as in campaign runs), so the
+    states, the dating of a declaration and the ``AnomalyReport`` messages are the onboard ones.
+    The reporter needs to know the frame each batch was made in: onboard, a busy frame's
+    BudgetReport is emitted right after the frame, so it is the next one after the weights;
+    weights with no BudgetReport after them were made outside the frames (end of run). The
+    first report is the detector's state before any batch, dated ``t_start``; then one per batch.
+    """
+    reporter = AnomalyReporter(AnomalyDetector(calibration, families))
     w_topic = f"{topics.FSW_WEIGHTS}/{calibration.network}"
-    states: list[AnomalyState] = []
+    batches: list[m.FilterWeights] = []
     frame_end: list[float | None] = []
     pending: list[int] = []
-    last_frame_end = t_start
     for topic, msg in messages:
         topic = topic.strip("/")
-        if topic == w_topic:
-            states.append(det.update(msg.t_s, msg.weights, msg.filters,
-                                     batch_statistic=msg.statistic if msg.statistic else None))
+        if topic == w_topic and isinstance(msg, m.FilterWeights):
+            batches.append(msg)
             frame_end.append(None)
-            pending.append(len(states) - 1)
+            pending.append(len(batches) - 1)
         elif topic == topics.FSW_BUDGET and isinstance(msg, m.BudgetReport):
-            last_frame_end = msg.t_s
             for i in pending:
                 frame_end[i] = msg.t_s
             pending.clear()
-    for i in pending:
-        frame_end[i] = last_frame_end
-    initial = ReplayedReport(t_start, False, "none", 0.0, None, None, calibration.network)
-    out = [initial]
-    was_flagged = False
-    declared_at = 0.0
-    for st, t_frame in zip(states, frame_end):
-        if st.flag and not was_flagged:
-            declared_at = max(float(st.declared_t if st.declared_t is not None else st.t), t_frame or 0.0)
-        was_flagged = st.flag
-        out.append(ReplayedReport(
-            t_s=float(st.t), flag=bool(st.flag), anomaly_class=st.anomaly_class,
-            confidence=float(min(max(st.confidence, 0.0), 1.0)),
-            onset_s=None if st.onset_t is None else float(st.onset_t),
-            declared_s=None if st.declared_t is None else max(float(st.declared_t), declared_at),
-            network=calibration.network))
-    return out
+    reports = [reporter.report(reporter.state, t_start)]
+    for msg, t_frame in zip(batches, frame_end):
+        reports.append(reporter.report(reporter.consume_weights(msg, t_frame), msg.t_s))
+    return reports
 
 
 def monitor_summaries(result: RunResult, monitors: dict[str, dict]) -> dict[str, dict]:

@@ -1,0 +1,303 @@
+"""The flight software's core: bank, gating networks and anomaly detector under the executive.
+
+``FswCore`` is transport-free and deterministic in work-unit budget mode: the FSW process feeds it
+measurements from Zenoh and publishes what it emits, the in-process runner and the replay
+re-run feed it from memory or from an MCAP file. All three run the same code, from
+:meth:`FswCore.start` to :meth:`FswCore.finish`.
+
+Time is driven by the data: before a measurement tagged t is queued, every frame ending before t
+runs (so a gap in tracking gives the executive idle frames to catch up its backlog). Each
+measurement becomes one executive job whose stages are the rows of :attr:`FswCore.PIPELINE`:
+
+``ingest``    bookkeeping (cheap);
+``primary``   the filter bank — all filters are advanced in one vectorised stage, because they
+              share the propagation of the union state and per-filter stages would cost more
+              than the whole bank; its work-unit cost scales with the number of filters;
+``gating``    every gating network, then the detector on the configured network's new weights;
+``telemetry`` estimates, anomaly reports and status at their configured cadences.
+
+Nothing is dropped: a measurement the bank rejects is counted by reason and its gating stage
+skipped; a stage that raises is contained and counted by the executive.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable, ClassVar
+
+import numpy as np
+
+from fsw.config import FswConfig, InitialState
+from fsw.core import commands
+from fsw.core.counters import CoreCounters, ExtraCounters, status_counts
+from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_job, gating_cost, ingest_cost,
+                               no_gc_pauses, telemetry_cost)
+from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, budget_message, estimate_message,
+                                status_message, weights_message)
+from fsw.executive import BudgetReportData, FrameExecutive
+from fsw.fdir.detector import AnomalyDetector, AnomalyState
+from fsw.filters.bank import FilterBank, FilterEstimate
+from fsw.filters.errors import MeasurementRejected
+from fsw.gating.base import GatingError, GatingNetwork, WeightsUpdate
+from fsw.gating.registry import make_network
+from fsw.ingest import SequenceGuard
+from fsw.interface import codec, messages as m, topics
+
+
+class FswCore:
+    """Bank + gating + detector + executive; emits ICD telemetry through ``emit(topic, msg)``."""
+
+    def __init__(self, config: FswConfig, emit: Emit, *, run_id: str = "run",
+                 clock: Callable[[], float] = time.thread_time):
+        if config.initial_state is None:
+            raise ValueError("the FSW needs an a-priori initial state (fsw.initial_state)")
+        self.config = config
+        self.run_id = run_id
+        self._sink = emit
+        init: InitialState = config.initial_state
+        self.bank = FilterBank(config.bank, init.t_s, init.position_km, init.velocity_km_s)
+        self.filters = tuple(self.bank.names)
+        self.networks: dict[str, GatingNetwork] = {
+            g.network: make_network(g.network, self.filters, g.params) for g in config.gating
+        }
+        self.latest: dict[str, WeightsUpdate] = {}
+        det = config.detector
+        self.reporter: AnomalyReporter | None = None
+        if det.calibration is not None:
+            self.reporter = AnomalyReporter(AnomalyDetector(det.calibration, config.families()))
+        self.guard = SequenceGuard(window=config.reorder_window)
+        self.counters = CoreCounters()
+        # a stage that raises is contained and counted by the executive (BudgetReport.errors)
+        self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s)
+        self.t0 = init.t_s
+        self._next_estimate = init.t_s
+        self._next_anomaly = init.t_s
+        self._next_status = init.t_s + config.telemetry.status_every_s
+        self._last_t = init.t_s
+        self._end: m.RunStatus | None = None
+        #: counters of the process around the core (e.g. malformed telecommands), in every status
+        self.extra_counters: ExtraCounters | None = None
+        self._last_overruns = 0
+        self._next_idle_report = init.t_s
+        self.frames_reported = 0
+        self.max_utilisation = 0.0
+
+    @property
+    def detector(self) -> AnomalyDetector | None:
+        return None if self.reporter is None else self.reporter.detector
+
+    @property
+    def finished(self) -> bool:
+        return self._end is not None
+
+    @property
+    def t_last(self) -> float:
+        """Epoch of the newest measurement handled (the initial epoch before any)."""
+        return self._last_t
+
+    # -- lifecycle -----------------------------------------------------------------------------
+    def start(self) -> None:
+        """The start-of-run status."""
+        self._emit_status("start", self.t0)
+
+    def finish(self) -> m.RunStatus:
+        """End of stream; returns the end-of-run status it emitted (again, if called again).
+
+        In order: release the measurements the intake still holds, drain the executive's backlog
+        (each frame's budget report after it), let every gating network close what it held back
+        (e.g. a partial batch) and the detector judge it, the estimates and the anomaly report at
+        the last epoch, then the end-of-run RunStatus. Its counts are the core's counters, the
+        driver's ``extra_counters``, and the number of messages emitted per topic before it (keys
+        with '/'), which the ground logger checks its recording against."""
+        if self._end is not None:
+            return self._end
+        for meas in self.guard.flush():
+            self._queue(meas)
+        while self.executive.pending_jobs:
+            with no_gc_pauses():
+                drained = self.executive.drain(max_frames=1)
+            for rep in drained.reports:
+                self._emit_budget(rep)
+        t_end = max(self._last_t, self.bank.t)
+        for name, net in self.networks.items():
+            upd = net.flush()
+            if upd is not None:
+                # outside any frame: a declaration here is known at its data epoch
+                self._publish_weights(name, upd, frame_end=None)
+        self._emit_estimates(t_end)
+        if self.reporter is not None:
+            self._report_anomaly(self.reporter.state, force=True, t=t_end)
+        self._last_t = t_end
+        counts = self.status_counts()
+        counts.update(self.counters.emitted)
+        self._end = status_message(t_end, self.run_id, "end-of-run", counts)
+        self._emit(topics.FSW_STATUS, self._end)
+        return self._end
+
+    # -- intake --------------------------------------------------------------------------------
+    def ingest_payload(self, payload: bytes | str) -> None:
+        """A raw ICD payload from the transport: decoded strictly, counted if malformed."""
+        try:
+            meas = codec.from_json(m.Measurement, payload)
+        except codec.ICDError:
+            self.counters.decode_errors += 1
+            return
+        self.ingest(meas)
+
+    def ingest(self, meas: m.Measurement) -> None:
+        """Accept one measurement (any order; see :class:`fsw.ingest.SequenceGuard`)."""
+        for released in self.guard.push(meas):
+            self._queue(released)
+
+    def _queue(self, meas: m.Measurement) -> None:
+        self.advance_to(meas.t_s)
+        load = Load(active_filters=int(self.bank.active.sum()), networks=len(self.networks))
+        self.executive.submit(build_job(self, self.PIPELINE, meas, self.config.budget, load))
+
+    def advance_to(self, t: float) -> None:
+        """Run every frame that ends before ``t``.
+
+        A BudgetReport is emitted for every frame that did or deferred work, and for idle frames
+        at most once per ``telemetry.idle_budget_every_s`` (tracking gaps are days long; a report
+        per idle frame would bury the interesting ones)."""
+        while self.executive.t_frame_end + self.config.budget.frame_s <= t:
+            with no_gc_pauses():
+                rep = self.executive.run_frame()
+            busy = rep.processed or rep.deferred or rep.backlog or rep.overruns != self._last_overruns
+            if busy or rep.t_s >= self._next_idle_report:
+                self._emit_budget(rep)
+
+    # -- the pipeline: the stages of one measurement's job, in order -----------------------------
+    def _stage_ingest(self, ctx: JobContext) -> None:
+        """The intake's bookkeeping ran on arrival (sequence guard); this stage charges its cost
+        to the frame that takes the measurement on."""
+
+    def _stage_bank(self, ctx: JobContext) -> None:
+        # Estimates go out on a fixed grid t0 + k·estimate_every_s (so the ground can compare
+        # them with truth at exactly the same epochs): propagate to each grid epoch passed.
+        while self._next_estimate <= ctx.meas.t_s:
+            if self._next_estimate >= self.bank.t:
+                self.bank.propagate_to(self._next_estimate)
+                self._emit_estimates(self._next_estimate)
+            self._next_estimate += self.config.telemetry.estimate_every_s
+        try:
+            ctx.record = self.bank.process(ctx.meas)
+        except MeasurementRejected as exc:
+            self.counters.bank_rejected[exc.reason] += 1
+
+    def _stage_gating(self, ctx: JobContext) -> None:
+        if ctx.record is None:
+            return
+        for name, net in self.networks.items():
+            try:
+                upd = net.update(ctx.record)
+            except GatingError:
+                self.counters.gating_errors += 1
+                continue
+            if upd is not None:
+                # what this stage concludes is known at the end of the frame running it: later
+                # than the data if the budget made the gating lag behind the filters
+                self._publish_weights(name, upd, frame_end=self.executive.t_now)
+
+    def _stage_telemetry(self, ctx: JobContext) -> None:
+        t = ctx.meas.t_s
+        self._last_t = max(self._last_t, t)
+        tel = self.config.telemetry
+        if self.reporter is not None and t >= self._next_anomaly:
+            self._report_anomaly(self.reporter.state, force=True, t=t)
+            while self._next_anomaly <= t:
+                self._next_anomaly += tel.anomaly_every_s
+        if t >= self._next_status:
+            self._emit_status("running", t)
+            while self._next_status <= t:
+                self._next_status += tel.status_every_s
+
+    #: One job per measurement: (priority class, label, stage, declared cost in work units).
+    PIPELINE: ClassVar[tuple[StageSpec[FswCore], ...]] = (
+        StageSpec("ingest", None, _stage_ingest, ingest_cost),
+        StageSpec("primary", "bank", _stage_bank, bank_cost),
+        StageSpec("gating", None, _stage_gating, gating_cost),
+        StageSpec("telemetry", None, _stage_telemetry, telemetry_cost),
+    )
+
+    # -- telemetry -----------------------------------------------------------------------------
+    def _emit(self, topic: str, msg: FswMessage) -> None:
+        self._sink(topic, msg)
+        self.counters.emitted[topic] += 1
+
+    def _publish_weights(self, name: str, upd: WeightsUpdate, frame_end: float | None) -> None:
+        """New weights of network ``name``: out to the ground, and to the detector if it watches it."""
+        self.latest[name] = upd
+        self._emit(f"{topics.FSW_WEIGHTS}/{upd.network}", weights_message(upd))
+        if self.reporter is not None and name == self.config.detector.network:
+            state = self.reporter.consume(upd, frame_end, active=self.bank.active.copy())
+            self._report_anomaly(state, force=False)
+
+    def _report_anomaly(self, state: AnomalyState, force: bool, t: float | None = None) -> None:
+        """Report ``state`` if it is news (flag, class or declaration changed) or ``force``."""
+        if self.reporter is None:
+            return
+        if self.reporter.news(state) or force:
+            self._emit(topics.FSW_ANOMALY, self.reporter.report(state, self._last_t if t is None else t))
+
+    def reset_detector(self) -> None:
+        """Telecommanded reset of the detector; the ground hears of it at once."""
+        if self.reporter is not None:
+            self._report_anomaly(self.reporter.reset(), force=True)
+
+    def weights_for_combination(self) -> np.ndarray | None:
+        net = self.config.detector.network
+        upd = self.latest.get(net) or next(iter(self.latest.values()), None)
+        return None if upd is None else np.asarray(upd.weights, dtype=float)
+
+    def _best_filter(self, ests: dict[str, FilterEstimate], weights: np.ndarray | None) -> str:
+        """The filter to navigate on. While no anomaly is declared the gating weights of a
+        healthy bank are all ≈ 1/N (Lubey & Ely 2022 §4.2: "we would usually select the default
+        filter") and say nothing about accuracy, so the best-informed enabled filter (smallest
+        RTPC) is used; once an anomaly is declared, the filter the gating network prefers."""
+        enabled = [n for n, a in zip(self.filters, self.bank.active) if a]
+        flagged = self.reporter is not None and self.reporter.state.flag
+        if flagged and weights is not None:
+            w = dict(zip(self.filters, weights))
+            return max(enabled, key=lambda n: w.get(n, 0.0))
+        return min(enabled, key=lambda n: ests[n].position_sigma_km)
+
+    def _emit_estimates(self, t: float) -> None:
+        weights = self.weights_for_combination()
+        ests = self.bank.estimates(weights)
+        if "best" in ests:
+            ests["best"] = ests[self._best_filter(ests, weights)]
+        tel = self.config.telemetry
+        for label, est in ests.items():
+            if label in self.filters and not tel.per_filter_estimates:
+                continue
+            self._emit(f"{topics.FSW_ESTIMATE}/{label}", estimate_message(est, label, tel.full_covariance))
+
+    def _emit_budget(self, rep: BudgetReportData) -> None:
+        self._last_overruns = rep.overruns
+        self.frames_reported += 1
+        self.max_utilisation = max(self.max_utilisation, float(rep.utilisation))
+        self._next_idle_report = rep.t_s + self.config.telemetry.idle_budget_every_s
+        self._emit(topics.FSW_BUDGET, budget_message(rep))
+
+    def status_counts(self) -> dict[str, int]:
+        """The counters every RunStatus carries (see :func:`fsw.core.counters.status_counts`)."""
+        return status_counts(self.counters, self.guard, self.bank, self.executive, self.extra_counters)
+
+    def _emit_status(self, state: RunState, t: float) -> None:
+        self._emit(topics.FSW_STATUS, status_message(t, self.run_id, state, self.status_counts()))
+
+    # -- telecommands --------------------------------------------------------------------------
+    def command(self, tc: m.Telecommand) -> m.TelecommandReply:
+        """Carry out a telecommand (see :mod:`fsw.core.commands`); anything that cannot be done
+        is an error reply and changes nothing."""
+        return commands.execute(self, tc)
+
+    def command_payload(self, payload: bytes | str) -> m.TelecommandReply:
+        """A raw telecommand payload: malformed ones get an error reply and are counted."""
+        try:
+            tc = codec.from_json(m.Telecommand, payload)
+        except codec.ICDError as exc:
+            self.counters.commands_rejected += 1
+            return m.TelecommandReply(id="", ok=False, error=str(exc)[:500])
+        return self.command(tc)

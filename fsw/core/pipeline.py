@@ -1,0 +1,93 @@
+"""The work one measurement causes onboard, as a table of stages.
+
+Each measurement becomes one executive job. Its stages run in the order of the table; each row
+names the priority class, the label the executive reports (and, in CPU mode, keys its measured
+cost by), the core's method that does the work and the rule for its declared cost in work units.
+The cost rules depend only on the load when the job is queued: how many filters are enabled and
+how many gating networks run.
+"""
+
+from __future__ import annotations
+
+import gc
+from contextlib import contextmanager
+from dataclasses import dataclass
+from functools import partial
+from typing import Callable, Generic, Iterator, TypeVar
+
+from fsw.executive import Job, Stage
+from fsw.executive.config import BudgetConfig, StageKind
+from fsw.filters.record import BankRecord
+from fsw.interface import messages as m
+
+Core = TypeVar("Core")
+
+
+@dataclass
+class JobContext:
+    """What the stages of one measurement's job hand on to each other."""
+
+    meas: m.Measurement
+    record: BankRecord | None = None  # the bank's record; None when the bank rejected it
+
+
+@dataclass(frozen=True)
+class Load:
+    """What the declared stage costs depend on."""
+
+    active_filters: int
+    networks: int
+
+
+def ingest_cost(budget: BudgetConfig, load: Load) -> float:
+    return budget.ingest_cost
+
+
+def bank_cost(budget: BudgetConfig, load: Load) -> float:
+    """The bank advances every enabled filter in one vectorised stage (they share the
+    propagation of the union state): one primary filter plus an increment per further filter."""
+    return budget.primary_cost + budget.filters_cost * max(load.active_filters - 1, 0)
+
+
+def gating_cost(budget: BudgetConfig, load: Load) -> float:
+    return budget.gating_cost * max(load.networks, 1)
+
+
+def telemetry_cost(budget: BudgetConfig, load: Load) -> float:
+    return budget.telemetry_cost
+
+
+@dataclass(frozen=True)
+class StageSpec(Generic[Core]):
+    """One row of the pipeline table."""
+
+    kind: StageKind
+    label: str | None  # None: the priority class
+    run: Callable[[Core, JobContext], None]
+    cost: Callable[[BudgetConfig, Load], float]
+
+
+def build_job(core: Core, pipeline: tuple[StageSpec[Core], ...], meas: m.Measurement,
+              budget: BudgetConfig, load: Load) -> Job:
+    """The job of ``meas``: the pipeline's stages bound to ``core`` and one shared context."""
+    ctx = JobContext(meas)
+    stages = tuple(Stage(s.kind, partial(s.run, core, ctx), cost=s.cost(budget, load), name=s.label)
+                   for s in pipeline)
+    return Job(t=meas.t_s, stages=stages, tag=str(meas.seq))
+
+
+@contextmanager
+def no_gc_pauses() -> Iterator[None]:
+    """Keep Python's cyclic garbage collector out of the frames.
+
+    A full collection costs tens of ms — longer than any stage — and would land on whatever stage
+    happens to allocate at that moment, charging it a spurious overrun. Collection is deferred
+    to just after the frame, outside any stage's CPU accounting (a flight executive likewise
+    keeps memory management out of its time-critical frames)."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()

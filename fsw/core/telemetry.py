@@ -1,0 +1,178 @@
+"""What the flight software tells the ground: its ICD messages, built in one place.
+
+Each builder turns an onboard object into its ICD message (:mod:`fsw.interface.messages`):
+gating weights into ``FilterWeights``, a filter estimate into ``Estimate``, a frame of the
+executive into ``BudgetReport``, counters into ``RunStatus``, the detector's state into
+``AnomalyReport``. The anomaly report also carries the one rule for dating a declaration
+(:class:`DeclarationClock`); :class:`AnomalyReporter` pairs it with the detector so that the
+FSW core and the ground's replay of a detector (campaign monitors) report alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Callable, Literal, Mapping
+
+import numpy as np
+
+from fsw.astro.time import tdb_to_unix
+from fsw.executive.report import BudgetReportData
+from fsw.fdir.detector import AnomalyDetector, AnomalyState
+from fsw.filters.bank import FilterEstimate
+from fsw.gating.base import WeightsUpdate
+from fsw.interface import messages as m
+
+#: Every message the FSW core emits.
+FswMessage = m.FilterWeights | m.AnomalyReport | m.Estimate | m.BudgetReport | m.RunStatus
+#: Where the core's messages go: ``emit(topic, message)`` (a publisher, a list, a recorder).
+Emit = Callable[[str, FswMessage], None]
+RunState = Literal["start", "running", "end-of-run", "error"]
+
+
+@lru_cache(maxsize=4096)
+def _unix_offset(hour: int) -> float:
+    t = hour * 3600.0
+    return float(tdb_to_unix(t)) - t
+
+
+def stamp(t_s: float) -> m.Stamp:
+    """Foxglove-style stamp of a TDB epoch.
+
+    Within an hour UTC − TDB changes only through the ≤ 1.7 ms periodic TDB − TT term (< 2 µs
+    per hour) — and through a leap second, if one falls in that hour (stamps after it are then
+    1 s off until the next hour). One exact conversion per hour is plenty for a display
+    timestamp and makes telemetry cheap to stamp."""
+    return m.Stamp.from_unix(t_s + _unix_offset(int(t_s // 3600.0)))
+
+
+def weights_message(upd: WeightsUpdate) -> m.FilterWeights:
+    """A gating network's new weights; ``statistic`` is the per-filter quantity behind them
+    (e.g. the batch chi-square G_k,i of Lubey & Ely 2022 eq. 6), empty if the network has none."""
+    stat = () if upd.statistic is None else tuple(float(s) for s in upd.statistic)
+    return m.FilterWeights(
+        t_s=float(upd.t), timestamp=stamp(upd.t), network=upd.network, batch=int(upd.batch),
+        filters=tuple(upd.filters), weights=tuple(float(w) for w in upd.weights),
+        groups=upd.groups(), statistic=stat,
+    )
+
+
+def estimate_message(est: FilterEstimate, label: str, full_covariance: bool) -> m.Estimate:
+    """One navigation solution; the full covariance only when configured (it is N² numbers)."""
+    return m.Estimate(
+        t_s=float(est.t), timestamp=stamp(est.t), filter=label,
+        position_km=tuple(float(v) for v in est.position_km),
+        velocity_km_s=tuple(float(v) for v in est.velocity_km_s),
+        position_sigma_km=float(est.position_sigma_km), state_names=tuple(est.state_names),
+        state=tuple(float(v) for v in est.x), sigma=tuple(float(v) for v in est.sigma),
+        covariance=tuple(tuple(float(v) for v in row) for row in est.P) if full_covariance else None,
+    )
+
+
+def budget_message(rep: BudgetReportData) -> m.BudgetReport:
+    """One frame of the executive."""
+    return m.BudgetReport(timestamp=stamp(rep.t_s), **rep.icd_fields())
+
+
+def status_message(t: float, run_id: str, state: RunState, counts: Mapping[str, int],
+                   message: str = "") -> m.RunStatus:
+    """The FSW's lifecycle status with its counters."""
+    return m.RunStatus(t_s=float(t), timestamp=stamp(t), run_id=run_id, source="fsw", state=state,
+                       counts=dict(counts), message=message)
+
+
+@dataclass
+class DeclarationClock:
+    """When the flight software knows that it has declared an anomaly.
+
+    The detector dates a declaration by the batch that raised the flag (``declared_t``). Onboard,
+    the gating stage that produced that batch runs in a frame of the executive, possibly frames
+    after the data when the budget made the gating lag behind the filters; what it concludes is
+    known at the end of that frame. A declaration made outside any frame (the batch a network
+    closes at the end of the run) is known at its data epoch. The report's ``declared_s`` is the
+    later of the two, held for as long as the flag stays raised.
+    """
+
+    declared_at: float | None = None
+
+    def observe(self, was_flagged: bool, state: AnomalyState, frame_end: float | None) -> None:
+        """Record the detector's new ``state``; ``frame_end``: end of the frame whose stage made
+        it, None outside the frames."""
+        if state.flag and not was_flagged and state.declared_t is not None:
+            data_t = float(state.declared_t)
+            self.declared_at = data_t if frame_end is None else max(data_t, frame_end)
+
+    def declared_s(self, state: AnomalyState) -> float | None:
+        """``AnomalyReport.declared_s`` of ``state`` (None while nothing is declared)."""
+        if state.declared_t is None:
+            return None
+        return max(float(state.declared_t), self.declared_at or 0.0)
+
+
+def anomaly_message(state: AnomalyState, t: float, clock: DeclarationClock) -> m.AnomalyReport:
+    """The ICD report of a detector ``state``; ``t`` dates a state that has no epoch of its own
+    (before the first batch, after a reset)."""
+    t_s = float(state.t if state.t is not None else t)
+    return m.AnomalyReport(
+        t_s=t_s, timestamp=stamp(t_s), flag=bool(state.flag), anomaly_class=state.anomaly_class,
+        confidence=float(min(max(state.confidence, 0.0), 1.0)),
+        onset_s=None if state.onset_t is None else float(state.onset_t),
+        declared_s=clock.declared_s(state),
+        network=state.network, statistic=float(state.statistic or 0.0), threshold=float(state.threshold),
+        evidence={k: float(v) for k, v in state.evidence.items()},
+    )
+
+
+class AnomalyReporter:
+    """An anomaly detector on one gating network and the reports it gives of itself.
+
+    The FSW core feeds it the network's weight updates as they are produced; the ground feeds a
+    fresh one the network's recorded ``FilterWeights`` (:meth:`consume_weights`). Both get the
+    same states, the same declaration dating and the same ``AnomalyReport`` messages.
+    """
+
+    def __init__(self, detector: AnomalyDetector):
+        self.detector = detector
+        self.clock = DeclarationClock()
+        self._last_reported: tuple[bool, str, float | None] | None = None
+
+    @property
+    def network(self) -> str:
+        return self.detector.config.network
+
+    @property
+    def state(self) -> AnomalyState:
+        return self.detector.state
+
+    def consume(self, upd: WeightsUpdate, frame_end: float | None,
+                active: np.ndarray | None = None) -> AnomalyState:
+        """One weight update of the network (``frame_end``: see :meth:`DeclarationClock.observe`)."""
+        was_flagged = self.detector.state.flag
+        state = self.detector.consume(upd, active=active)
+        self.clock.observe(was_flagged, state, frame_end)
+        return state
+
+    def consume_weights(self, msg: m.FilterWeights, frame_end: float | None) -> AnomalyState:
+        """One recorded ``FilterWeights`` of the network, as :meth:`consume` (all filters active)."""
+        was_flagged = self.detector.state.flag
+        state = self.detector.update(msg.t_s, msg.weights, msg.filters,
+                                     batch_statistic=msg.statistic if msg.statistic else None)
+        self.clock.observe(was_flagged, state, frame_end)
+        return state
+
+    def reset(self) -> AnomalyState:
+        """Telecommanded reset of the detector."""
+        return self.detector.reset()
+
+    def report(self, state: AnomalyState, t: float) -> m.AnomalyReport:
+        """The ICD report of ``state`` (``t``: see :func:`anomaly_message`)."""
+        return anomaly_message(state, t, self.clock)
+
+    def news(self, state: AnomalyState) -> bool:
+        """Whether ``state`` changes what the ground was last told (flag, class or declaration).
+        True marks it as told: the caller then reports it."""
+        key = (state.flag, state.anomaly_class, state.declared_t)
+        if key == self._last_reported:
+            return False
+        self._last_reported = key
+        return True
