@@ -14,6 +14,11 @@ adds δK S δKᵀ (second order) — the properties that keep P SPD over tens of
 updates. Writing it this way also gives P̄Hᵀ and S as blocks of M, and costs two batched
 products instead of four. A filter that does not process a measurement gets K = 0, which
 leaves x̄ and P̄ unchanged through the same arithmetic.
+
+The rounding of that congruence is relative to ‖M‖ ≥ ‖P̄‖, though. Where a measurement is
+many orders of magnitude stronger than the prior, P⁺ is that much smaller than P̄ and the
+rounding swamps it; :func:`update_explicit`, the linear bank's update, forms the Joseph
+products so that their rounding is relative to P⁺'s own terms (numbers there).
 """
 
 from __future__ import annotations
@@ -162,8 +167,9 @@ def update_explicit(
     a congruence of the PSD block diagonal diag(P̄, R), so PSD up to its own rounding for any
     X. Where a measurement is strong, I − KH is small (of order R S⁻¹) and scales P̄ down
     before anything is summed: each product's rounding is relative to |I − KH| |P̄| |I − KH|ᵀ
-    and |K| R |K|ᵀ, not to ‖P̄‖. I − KH = X's left block carries an absolute rounding of eps,
-    which is a gain error and changes P⁺ only at second order. Same test and reference:
+    and |K| R |K|ᵀ, not to ‖P̄‖. X's left block I − KH carries an absolute rounding δ of
+    eps; as (I − KH)P̄ = P⁺ for the optimal gain, δ moves P⁺ by δP⁺ + P⁺δᵀ + δP̄δᵀ, relative
+    to P⁺ itself apart from the eps²·‖P̄‖ of the last term. Same test and reference:
     1.7e-16 at the first update; 1.1e-4 (Haswell) and 2.1e-4 (generic) at the second, whose
     P̄ is nearly singular (eigenvalues 11 orders of magnitude apart); below 6e-16 from the
     third on. The first product also gives the state: X W̃ has −(I − KH)x̄ − Kz = −x⁺ in its

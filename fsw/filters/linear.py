@@ -72,7 +72,7 @@ class LinearFilterBank:
         self.H = _stack(H, N, (m, n), "H")
         self.R = _stack(R, N, (m, m), "R")
         # [P | −x] per filter: the (negated) state rides along as an extra column of the
-        # covariance products (see kalman.update), which saves separate matrix-vector products.
+        # covariance products (see kalman.update_explicit), which saves separate matrix-vector products.
         self._PX = np.empty((N, n, n + 1))
         self._PX[:, :, :n] = _stack(P0, N, (n, n), "P0")
         self._PX[:, :, n] = -_stack(x0, N, (n,), "x0")
