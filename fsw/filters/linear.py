@@ -48,9 +48,6 @@ class LinearFilterBank:
     """
 
     KINDS: tuple[str, ...] = ("generic-linear",)
-    #: The Joseph products leave only rounding-level asymmetry, which grows slowly; removing
-    #: it every few updates keeps P symmetric at a fraction of the cost.
-    SYMMETRISE_EVERY = 8
 
     def __init__(
         self,
@@ -75,7 +72,7 @@ class LinearFilterBank:
         self.H = _stack(H, N, (m, n), "H")
         self.R = _stack(R, N, (m, m), "R")
         # [P | −x] per filter: the (negated) state rides along as an extra column of the
-        # covariance products (see kalman.update), which saves separate matrix-vector products.
+        # covariance products (see kalman.update_explicit), which saves separate matrix-vector products.
         self._PX = np.empty((N, n, n + 1))
         self._PX[:, :, :n] = _stack(P0, N, (n, n), "P0")
         self._PX[:, :, n] = -_stack(x0, N, (n,), "x0")
@@ -96,14 +93,10 @@ class LinearFilterBank:
         self._all_true.flags.writeable = False  # shared by every record: nobody may mutate it
         self.rejected: Counter[str] = Counter()
         self.t = 0.0
-        self._updates = 0
         self._z_shape = (m,)
         self._n = n
-        # workspace of the all-filters step: A[P | −x], the Joseph intermediate, and two
-        # alternating homes for [P | −x] (so ``P`` is a view valid until the next step but one)
-        self._work = (np.empty((N, n + m, n + 1)), np.empty((N, n + m, n + 1 + m)),
-                      np.empty((N, n + m, n + 1)), np.empty((N, n + m, n + 1)))
-        self._flip = 0
+        # workspace of the all-filters step: A[P | −x]
+        self._work = np.empty((N, n + m, n + 1))
         self._rebuild()
 
     @property
@@ -171,6 +164,7 @@ class LinearFilterBank:
         self._C[:, n:, n + 1 :] = self.H @ QHt + self.R
         self._D = np.zeros((N, n + m, n + 1 + m))
         self._D[:, n:, n + 1 :] = self.R
+        self._joseph = kalman.joseph_operands(self.H, self.R)
 
     @staticmethod
     def _augment(F: np.ndarray, HF: np.ndarray) -> np.ndarray:
@@ -217,17 +211,10 @@ class LinearFilterBank:
                   C: np.ndarray) -> BankRecord:
         """The common case, kept free of bookkeeping: every filter active and updating."""
         n = self._n
-        work = self._work
-        Mt = np.matmul(np.matmul(A, self._PX, out=work[0]), At)
+        Mt = np.matmul(np.matmul(A, self._PX, out=self._work), At)
         C[:, n:, n] = z  # C's state column is otherwise zero: [−x̄; −ŷ] + [0; z] = [−x̄; z̄]
         Mt += C
-        # the new [P | −x] goes to the buffer the current one does not occupy
-        self._flip ^= 1
-        PX_new, residual, S, chi2 = kalman.update_all(Mt, n, work[1], work[2 + self._flip])
-        self._updates += 1
-        if self._updates % self.SYMMETRISE_EVERY == 0:
-            PX_new[:, :, :n] = kalman.symmetrise(PX_new[:, :, :n])
-        self._PX = PX_new
+        self._PX, residual, S, chi2, _ = kalman.update_explicit(Mt, n, self._joseph, z)
         self.t = t = float(t)
         return BankRecord(t, int(seq), kind, self.names, residual, S, chi2, self._all_true, self._all_true)
 
@@ -249,12 +236,12 @@ class LinearFilterBank:
         gate = None if self._no_gate else self._gate
         if not every:
             does, gate = does[a], (None if gate is None else gate[a])
-        PX_new, residual, S, chi2, processed = kalman.update(Mt, n, None if self._all_process(kind) else does, gate)
+        HI, E, W = self._joseph
+        operands = (HI, E, W) if every else (HI[a], E, W[a])
+        PX_new, residual, S, chi2, processed = kalman.update_explicit(
+            Mt, n, operands, z, None if self._all_process(kind) else does, gate)
         if processed is None:
             processed = self._all_true if every else np.ones(int(a.sum()), dtype=bool)
-        self._updates += 1
-        if self._updates % self.SYMMETRISE_EVERY == 0:
-            PX_new[:, :, :n] = kalman.symmetrise(PX_new[:, :, :n])
         self.t = float(t)
         if every:
             self._PX = PX_new
