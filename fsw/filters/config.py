@@ -12,11 +12,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from fsw.filters.kinds import FILTER_KINDS
 from fsw.interface.typed import spec
 from fsw.models.clock import DEFAULT_Q_RANDOM_RUN_PER_S3, DEFAULT_Q_RANDOM_WALK_FM_PER_S, DEFAULT_Q_WHITE_FM_S
 
 DAY_S = 86400.0
-FILTER_KINDS: tuple[str, ...] = ("range", "doppler", "optical")
 
 
 @dataclass(frozen=True, slots=True)

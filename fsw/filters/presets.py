@@ -16,7 +16,10 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
+from fsw.fdir import families
+from fsw.filters import kinds
 from fsw.filters.config import (
     DAY_S,
     AcsConfig,
@@ -28,14 +31,14 @@ from fsw.filters.config import (
     SrpConfig,
 )
 
-RADIO: tuple[str, ...] = ("range", "doppler")
-OPTICAL: tuple[str, ...] = ("optical",)
-FUSED: tuple[str, ...] = ("range", "doppler", "optical")
+RADIO: tuple[str, ...] = kinds.of_family(families.RADIO)
+OPTICAL: tuple[str, ...] = kinds.of_family(families.OPTICAL)
+FUSED: tuple[str, ...] = RADIO + OPTICAL
 
 
-def _family(name: str, kinds: tuple[str, ...], **changes) -> FilterConfig:
-    base = FilterConfig(name=name, processes=kinds)
-    if kinds == OPTICAL:
+def _family(name: str, processes: tuple[str, ...], **changes: Any) -> FilterConfig:
+    base = FilterConfig(name=name, processes=processes)
+    if processes == OPTICAL:
         base = dataclasses.replace(base, clock=ClockConfig(phase_sigma_s=0.0), range_bias_sigma_km=0.0)
     return dataclasses.replace(base, **changes)
 
