@@ -34,7 +34,7 @@ def screen(meas: Measurement, dimensions: Mapping[str, int | None]) -> tuple[np.
     ``dimensions`` maps each kind this bank has a model for to its expected length (None: any).
     """
     kind = getattr(meas, "kind", None)
-    if kind not in dimensions:
+    if not isinstance(kind, str) or kind not in dimensions:
         raise MeasurementRejected("unknown_kind", f"no model for measurement kind {kind!r}")
     t = getattr(meas, "t_s", None)
     if isinstance(t, bool) or not isinstance(t, (int, float, np.floating)) or not math.isfinite(t):

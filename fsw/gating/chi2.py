@@ -38,7 +38,7 @@ principal sub-matrix of W̄⁻¹ over the active filters as the memory term.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
@@ -180,7 +180,7 @@ class Chi2Network(GatingNetwork):
     """Seed 001 chi-square gating network (eqs. 5–8) with batch length M and memory W̄."""
 
     name = "chi2"
-    params_type = Chi2Params
+    params_type: ClassVar[type] = Chi2Params
 
     def _check_params(self, params: Any) -> None:
         if params.memory_matrix:

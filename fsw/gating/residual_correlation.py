@@ -180,7 +180,10 @@ class ResidualCorrelationNetwork(GatingNetwork):
         filter's own hypothesis."""
         if self.params.calibration == "learn":
             if self._model is None:
-                self._model = (self._mean, np.linalg.inv(self._cov), np.linalg.slogdet(self._cov)[1])
+                mean, cov = self._mean, self._cov
+                if mean is None or cov is None:
+                    raise GatingInputError("the learned nominal model is used before its calibration is complete")
+                self._model = (mean, np.linalg.inv(cov), np.linalg.slogdet(cov)[1])
             return self._model
         if self._model is not None and self._model[0].shape[1] == m * len(self.params.frequencies):
             return self._model

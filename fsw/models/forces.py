@@ -185,6 +185,8 @@ def acceleration(
     a += a_acs
     powers = None
     if params.poly_degree is not None:
+        if s_poly is None:
+            raise ValueError("a polynomial acceleration needs the normalised batch time s_poly")
         coeffs = q[:, N_Q_FIXED:].reshape(N, params.poly_degree + 1, 3)
         powers = poly_powers(s_poly, params.poly_degree)
         a += np.einsum("nk,nkj->nj", powers, coeffs)
@@ -195,6 +197,6 @@ def acceleration(
     dadq[:, :, 0] = (params.srp_coefficient / (d2[:, 1] * np.sqrt(d2[:, 1])))[:, None] * d[:, 1, :]
     dadq[:, :, 1:N_Q_FIXED] = acs_part
     if powers is not None:
-        for k in range(params.poly_degree + 1):
+        for k in range(powers.shape[1]):
             dadq[:, [0, 1, 2], N_Q_FIXED + 3 * k + np.arange(3)] = powers[:, k : k + 1]
     return a, G, dadq
