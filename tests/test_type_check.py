@@ -12,7 +12,7 @@ api = pytest.importorskip("mypy.api")
 ROOT = Path(__file__).resolve().parents[1]
 
 #: The packages checked, as paths from the repository root.
-PACKAGES: tuple[str, ...] = ("fsw", "sim")
+PACKAGES: tuple[str, ...] = ("fsw", "sim", "ground", "tools")
 
 
 def test_packages_type_check() -> None:

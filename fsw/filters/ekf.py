@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from fsw.astro.constants import C_KM_S
 from fsw.filters import kalman
@@ -92,7 +93,7 @@ class _Batched:
 class EKFStack:
     """N extended Kalman filters on a common union layout, propagated and updated together."""
 
-    def __init__(self, config: BankConfig, t0: float, r0, v0, env: Environment | None = None):
+    def __init__(self, config: BankConfig, t0: float, r0: ArrayLike, v0: ArrayLike, env: Environment | None = None):
         self.config = config
         cfgs = config.filters
         self.names = tuple(f.name for f in cfgs)
@@ -101,15 +102,15 @@ class EKFStack:
         self.env = env if env is not None else Environment()
         n = L.n
         self.t = float(t0)
-        r0 = np.asarray(r0, dtype=float)
-        v0 = np.asarray(v0, dtype=float)
-        if r0.shape != (3,) or v0.shape != (3,) or not (np.all(np.isfinite(r0)) and np.all(np.isfinite(v0))):
+        r = np.asarray(r0, dtype=float)
+        v = np.asarray(v0, dtype=float)
+        if r.shape != (3,) or v.shape != (3,) or not (np.all(np.isfinite(r)) and np.all(np.isfinite(v))):
             raise ValueError("initial position and velocity must be finite 3-vectors")
 
         sig = np.zeros((N, n))
         self.x = np.zeros((N, n))
-        self.x[:, 0:3] = r0
-        self.x[:, 3:6] = v0
+        self.x[:, 0:3] = r
+        self.x[:, 3:6] = v
         for i, f in enumerate(cfgs):
             sig[i, 0:3] = f.position_sigma_km
             sig[i, 3:6] = f.velocity_sigma_km_s
@@ -363,7 +364,7 @@ class EKFStack:
         q = self.clock_q
         return C_KM_S**2 * (q[:, 0] / count_s + q[:, 1] * count_s / 3.0)
 
-    def predict_optical(self, target: str, t: float, attitude_q, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def predict_optical(self, target: str, t: float, attitude_q: ArrayLike, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """h (N, 2) and H (N, 2, n) of the [sample, line] of a target (see :mod:`fsw.models.optical`)."""
         cams = self._cameras
         h, Hr, Hv = optical(self.env, target, t, x[:, 0:3], x[:, 3:6], np.asarray(attitude_q, dtype=float), *cams)

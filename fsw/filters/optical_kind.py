@@ -16,6 +16,13 @@ if TYPE_CHECKING:
     from fsw.filters.ekf import EKFStack
 
 
+def _attitude(meas: Measurement) -> tuple[float, ...]:
+    q = meas.attitude_q
+    if q is None:
+        raise MeasurementRejected("missing_field", "an optical measurement needs attitude_q")
+    return q
+
+
 class OpticalModel:
     """[sample, line] of a target centre through the pinhole camera, at the attitude sent along."""
 
@@ -26,9 +33,7 @@ class OpticalModel:
         source = meas.source
         if source not in OPTICAL_TARGETS:
             raise MeasurementRejected("unknown_source", f"unknown optical target {source!r}; known: {OPTICAL_TARGETS}")
-        q = meas.attitude_q
-        if q is None:
-            raise MeasurementRejected("missing_field", "an optical measurement needs attitude_q")
+        q = _attitude(meas)
         try:
             qa = np.asarray(q, dtype=float)
         except (TypeError, ValueError):
@@ -39,7 +44,7 @@ class OpticalModel:
             raise MeasurementRejected("non_finite", f"attitude_q must be a finite non-zero quaternion, got {qa.tolist()}")
 
     def predict(self, stack: EKFStack, meas: Measurement, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return stack.predict_optical(meas.source, t, meas.attitude_q, x)
+        return stack.predict_optical(meas.source, t, _attitude(meas), x)
 
     def added_variance(self, stack: EKFStack, meas: Measurement) -> np.ndarray | None:
         return None

@@ -34,6 +34,7 @@ station delays.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,7 +53,7 @@ class UplinkGeometry:
     d_rho_d_delta: np.ndarray  # (K, N) km/s
 
 
-def uplinks(env: Environment, station: str, t_tags, r: np.ndarray, v: np.ndarray, delta: np.ndarray,
+def uplinks(env: Environment, station: str, t_tags: Iterable[float], r: np.ndarray, v: np.ndarray, delta: np.ndarray,
             iterations: int = 2) -> UplinkGeometry:
     """Solve the uplink light time at K time tags ``t_tags`` for spacecraft states r, v
     (K, N, 3) and clock phases δ (N,), all epochs in one batched iteration.

@@ -105,9 +105,9 @@ def make_run(span_days: float = 45.0, end_offset_h: float = 6.0, seed: int = 1, 
         states[t] = x[0, :6].copy()
         if kind == "range":
             h, _ = truth.predict_range(source, t, x)
-            sigma = (1e-3,)
-            value = (float(h[0, 0] + rng.normal(0.0, sigma[0])),)
-            q = None
+            sigma: tuple[float, ...] = (1e-3,)
+            value: tuple[float, ...] = (float(h[0, 0] + rng.normal(0.0, sigma[0])),)
+            q: tuple[float, ...] | None = None
             count = None
         elif kind == "doppler":
             h, _ = truth.predict_doppler(source, t, 60.0, x)
