@@ -3,9 +3,9 @@
 For every measurement j the bank propagates all filters to the time tag, predicts the
 measurement with every filter — including filters that do not process that kind, because the
 gating networks need z̄_ij = y_j − h_ij(x̄_ij) and S_ij = R_ij + H̃_ij P̄_ij H̃_ijᵀ for all of them
-(seed 001 eq. 5, §3.2) — and updates the filters that process it. Outputs: the record, each
-filter's estimate, the weighted-sum estimate x̂_opt = Σ p_i x̂_i (seed 003 eq. 3) and the
-best-filter estimate (seed 001 §2).
+(Lubey & Ely 2022 eq. 5, §3.2) — and updates the filters that process it. Outputs: the record, each
+filter's estimate, the weighted-sum estimate x̂_opt = Σ p_i x̂_i (Chaer et al. 1997 eq. 3) and the
+best-filter estimate (Lubey & Ely 2022 §2).
 
 A measurement the bank cannot use (NaN, unknown kind or source, wrong size, time running
 backwards, ...) raises :class:`MeasurementRejected` before any filter state is touched and is

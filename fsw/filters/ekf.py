@@ -12,9 +12,9 @@ Propagation between measurements (t → t'):
   (clock block Φ_c = [[1, h, h²/2], [0, 1, h], [0, 0, 1]], identity for the other parameters);
 * P ← Φ P Φᵀ + Q with the clock process noise (:mod:`fsw.models.clock`) and optional white
   acceleration noise on the velocity (SNC: Q_rr = q h³/3, Q_rv = q h²/2, Q_vv = q h);
-* at every batch boundary the batched stochastic parameters step as ECRVs (seed 000 eqs.
-  25–26; seed 001 Table 1), the polynomial acceleration coefficients are re-initialised (or,
-  with a correlation time, step as ECRVs: seed 000's non-gravitational acceleration); at a
+* at every batch boundary the batched stochastic parameters step as ECRVs (Chaer et al. 1998 eqs.
+  25–26; Lubey & Ely 2022 Table 1), the polynomial acceleration coefficients are re-initialised (or,
+  with a correlation time, step as ECRVs: Chaer et al. 1998's non-gravitational acceleration); at a
   manoeuvre epoch the planned Δv is added and its execution uncertainty added to P_vv.
   Batches are counted from the bank's initial epoch (the spacecraft schedules its own daily
   ACS activity from the start of the arc) unless ``batch_origin_tdb_s`` says otherwise.

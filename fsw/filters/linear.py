@@ -1,6 +1,6 @@
 """A bank of linear Kalman filters x_{k+1} = F x_k + w_k, z_k = H x_k + v_k, stacked and vectorised.
 
-This is the bank of seed 003 §V (the 2-state tracking example, filters differing by α = [q1 q2 r1
+This is the bank of Chaer et al. 1997 §V (the 2-state tracking example, filters differing by α = [q1 q2 r1
 r2], eq. 26) and the reference bank of the benchmark. Every filter keeps its own F, Q, H, R; all
 of them live in stacked arrays so predict and update are a handful of batched matrix products,
 whatever the number of filters. Like the EKF bank it emits one ``BankRecord`` per measurement,
@@ -301,7 +301,7 @@ class LinearFilterBank:
 
     # -- outputs ---------------------------------------------------------------------------
     def estimates(self, weights: ArrayLike | None = None) -> dict[str, StateEstimate]:
-        """Per filter (x, P), plus 'combined' (weighted sum, seed 003 eq. 3) and 'best'
+        """Per filter (x, P), plus 'combined' (weighted sum, Chaer et al. 1997 eq. 3) and 'best'
         (highest weight) when ``weights`` are given; states named x[0], x[1], ..."""
         names = tuple(f"x[{k}]" for k in range(self._n))
         out = {name: StateEstimate(name, self.t, names, self.x[i].copy(), self.P[i].copy())

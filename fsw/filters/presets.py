@@ -1,4 +1,4 @@
-"""Built-in filter banks of seed 001.
+"""Built-in filter banks of Lubey & Ely 2022.
 
 * ``nominal`` (§4.2): ``radio`` (range + Doppler, clock and range-bias states), ``optical``
   (optical only; no clock or range-bias states — the data-type-specific bias terms are removed,
@@ -44,12 +44,12 @@ def _family(name: str, processes: tuple[str, ...], **changes: Any) -> FilterConf
 
 
 def nominal_bank() -> BankConfig:
-    """radio / optical / fused (seed 001 §4.2)."""
+    """radio / optical / fused (Lubey & Ely 2022 §4.2)."""
     return BankConfig(filters=(_family("radio", RADIO), _family("optical", OPTICAL), _family("fused", FUSED)))
 
 
 def acs_q_bank() -> BankConfig:
-    """Six filters of the attitude-thruster mis-modelling case (seed 001 §4.4)."""
+    """Six filters of the attitude-thruster mis-modelling case (Lubey & Ely 2022 §4.4)."""
     wide = AcsConfig(magnitude=BatchedParameterConfig(3.0, 10.0, DAY_S, None))
     std = [_family(n, k) for n, k in (("radio", RADIO), ("optical", OPTICAL), ("fused", FUSED))]
     q = [_family(n + "-Q", k, acs=wide, high_q=True) for n, k in (("radio", RADIO), ("optical", OPTICAL), ("fused", FUSED))]
@@ -57,7 +57,7 @@ def acs_q_bank() -> BankConfig:
 
 
 def process_noise_q_bank(low_sigma_km_s2: float = 5e-12, high_sigma_km_s2: float = 5e-11) -> BankConfig:
-    """Six filters of the process-noise case (seed 001 §4.4)."""
+    """Six filters of the process-noise case (Lubey & Ely 2022 §4.4)."""
     no_acs = AcsConfig(magnitude=BatchedParameterConfig(0.0, 0.0, DAY_S, None), direction_sigma_deg=0.0)
     srp_bias_only = SrpConfig(scale=BatchedParameterConfig(0.11, 0.0, DAY_S, None))
     out = []

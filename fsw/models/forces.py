@@ -12,7 +12,7 @@ Mars-centred ICRF, km and s::
 Cruise body frame (solar arrays on the Sun): z towards the Sun, x the component of the Earth
 direction across the Sun line, y = z × x; d is the unit nominal net thrust direction in it and
 e₁, e₂ two unit vectors across d: θ₁, θ₂ are the small thrust-direction errors, a constant
-random bias of 3° per axis in seed 001 Table 1 ("attitude thruster orientation"). To first
+random bias of 3° per axis in Lubey & Ely 2022 Table 1 ("attitude thruster orientation"). To first
 order in θ (the dropped renormalisation changes the magnitude by θ²/2 ≈ 1e-3, far inside the
 3 % magnitude bias) the tilted direction is d + θ₁ e₁ + θ₂ e₂.
 

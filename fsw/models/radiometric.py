@@ -1,6 +1,6 @@
 """One-way uplink range and Doppler as measured on board, with exact partials.
 
-Geometry (seed 001 §4.1, one-way radiometric data with a DSAC-class onboard clock). A DSN
+Geometry (Lubey & Ely 2022 §4.1, one-way radiometric data with a DSAC-class onboard clock). A DSN
 station transmits at TDB t_tx; the spacecraft receives at true TDB t_rx and time-tags the
 reception with its own clock, t_tag = t_rx + δ, δ the clock phase error (clock minus TDB). The
 light-time equation is solved in the solar-system-barycentric (SSB) frame:

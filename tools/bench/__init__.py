@@ -27,6 +27,7 @@ from typing import IO, Any
 import numpy as np
 
 from fsw.filters.bank import FilterBank
+from fsw.filters.kinds import FILTER_KINDS
 from fsw.filters.config import BankConfig
 from fsw.filters.linear import LinearFilterBank
 from fsw.filters.presets import preset
@@ -140,7 +141,7 @@ def bench_ekf(config: BankConfig, name: str, stream: tuple, env: Environment, re
         "filters": len(config.filters),
         "states": len(FilterBank(config, t0, r0, v0, env=env).state_names),
         "measurements": k,
-        "kinds": {kind: sum(1 for m in meas if m.kind == kind) for kind in ("range", "doppler", "optical")},
+        "kinds": {kind: sum(1 for m in meas if m.kind == kind) for kind in FILTER_KINDS},
         "reference_impl": "the same filters as separate one-filter banks",
         "stream": label,
     }
