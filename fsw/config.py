@@ -47,11 +47,11 @@ class GatingEntry:
         rest = {k: v for k, v in data.items() if k != "network"}
         return cls(network=name, params=typed.decode(params_type(name), rest, path))
 
-    def _typed_encode(self, drop_defaults: bool) -> dict:
+    def _typed_encode(self, drop_defaults: bool) -> dict[str, Any]:
         return {"network": self.network, **typed.encode(self.params, drop_defaults=drop_defaults)}
 
     @classmethod
-    def _typed_schema(cls) -> dict:
+    def _typed_schema(cls) -> dict[str, Any]:
         variants = []
         for name in NETWORKS:
             sch = typed.json_schema(params_type(name), top=False)
