@@ -1,19 +1,33 @@
-"""The onboard model of optical navigation images (:mod:`fsw.models.optical`)."""
+"""The onboard model of optical navigation images: prediction and partials over a bank's stacked
+states (camera geometry: :mod:`fsw.models.optical`)."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from fsw.fdir.families import OPTICAL
 from fsw.filters.errors import MeasurementRejected
 from fsw.interface import kinds
 from fsw.interface.messages import Measurement
 from fsw.models.environment import OPTICAL_TARGETS, Environment
+from fsw.models.optical import optical
 
 if TYPE_CHECKING:
     from fsw.filters.ekf import EKFStack
+
+
+def predict_optical(stack: EKFStack, target: str, t: float, attitude_q: ArrayLike,
+                    x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """h (N, 2) and H (N, 2, n) of the [sample, line] of a target for states x (N, n)."""
+    cams = stack.cameras
+    h, Hr, Hv = optical(stack.env, target, t, x[:, 0:3], x[:, 3:6], np.asarray(attitude_q, dtype=float), *cams)
+    H = np.zeros((x.shape[0], 2, stack.layout.n))
+    H[:, :, 0:3] = Hr
+    H[:, :, 3:6] = Hv
+    return h, H
 
 
 def _attitude(meas: Measurement) -> tuple[float, ...]:
@@ -44,7 +58,7 @@ class OpticalModel:
             raise MeasurementRejected("non_finite", f"attitude_q must be a finite non-zero quaternion, got {qa.tolist()}")
 
     def predict(self, stack: EKFStack, meas: Measurement, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return stack.predict_optical(meas.source, t, _attitude(meas), x)
+        return predict_optical(stack, meas.source, t, _attitude(meas), x)
 
     def added_variance(self, stack: EKFStack, meas: Measurement) -> np.ndarray | None:
         return None
