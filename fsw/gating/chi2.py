@@ -38,13 +38,16 @@ principal sub-matrix of W̄⁻¹ over the active filters as the memory term.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 
 from fsw.filters.record import BankRecord
 from fsw.gating.base import GatingNetwork, InvalidParameterError, WeightsUpdate, reenter_probabilities
 from fsw.interface.typed import spec
+
+if TYPE_CHECKING:  # the two-sided network derives from this one
+    from fsw.gating.chi2_two_sided import Chi2TwoSidedParams
 
 
 @dataclass(frozen=True)
@@ -182,7 +185,7 @@ class Chi2Network(GatingNetwork):
     name = "chi2"
     params_type: ClassVar[type] = Chi2Params
 
-    def _check_params(self, params: Any) -> None:
+    def _check_params(self, params: Chi2Params | Chi2TwoSidedParams) -> None:
         if params.memory_matrix:
             W = np.asarray(params.memory_matrix, dtype=float)
             if W.shape != (len(self.filters), len(self.filters)):
@@ -200,7 +203,7 @@ class Chi2Network(GatingNetwork):
             return np.asarray(self.params.memory_matrix, dtype=float)
         return self.params.sigma_w**2 * np.eye(len(self.filters))
 
-    def _params_changed(self, old: Any, new: Any) -> None:
+    def _params_changed(self, old: Chi2Params | Chi2TwoSidedParams, new: Chi2Params | Chi2TwoSidedParams) -> None:
         self._Winv = _memory_inverse(self._memory())
 
     def _reset(self) -> None:

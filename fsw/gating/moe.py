@@ -166,7 +166,7 @@ class MoeNetwork(GatingNetwork):
         self._g = log_normalize(np.zeros(len(self.filters)), self._active)
         self._count = 0
 
-    def _params_changed(self, old: Any, new: Any) -> None:
+    def _params_changed(self, old: MoeParams, new: MoeParams) -> None:
         if (old.features, old.kinds) != (new.features, new.kinds):
             self._reset()
 

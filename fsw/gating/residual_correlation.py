@@ -99,11 +99,11 @@ class ResidualCorrelationNetwork(GatingNetwork):
     name = "residual-correlation"
     params_type = ResidualCorrelationParams
 
-    def _check_params(self, params: Any) -> None:
+    def _check_params(self, params: ResidualCorrelationParams) -> None:
         if not params.frequencies:
             raise InvalidParameterError("residual-correlation needs at least one frequency")
 
-    def _params_changed(self, old: Any, new: Any) -> None:
+    def _params_changed(self, old: ResidualCorrelationParams, new: ResidualCorrelationParams) -> None:
         structural = ("window", "frequencies", "time_base", "kind", "calibration", "calibration_count")
         if any(getattr(old, f) != getattr(new, f) for f in structural):
             self._clear_window()
