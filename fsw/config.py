@@ -14,6 +14,7 @@ from typing import Any
 from fsw.executive.config import BudgetConfig
 from fsw.fdir.config import DetectorConfig
 from fsw.fdir.families import FilterFamily
+from fsw.filters import kinds
 from fsw.filters.config import BankConfig
 from fsw.filters.presets import nominal_bank
 from fsw.gating.registry import NETWORKS, params_type
@@ -46,11 +47,11 @@ class GatingEntry:
         rest = {k: v for k, v in data.items() if k != "network"}
         return cls(network=name, params=typed.decode(params_type(name), rest, path))
 
-    def _typed_encode(self, drop_defaults: bool) -> dict:
+    def _typed_encode(self, drop_defaults: bool) -> dict[str, Any]:
         return {"network": self.network, **typed.encode(self.params, drop_defaults=drop_defaults)}
 
     @classmethod
-    def _typed_schema(cls) -> dict:
+    def _typed_schema(cls) -> dict[str, Any]:
         variants = []
         for name in NETWORKS:
             sch = typed.json_schema(params_type(name), top=False)
@@ -126,11 +127,10 @@ class FswConfig:
         (never from names)."""
         out = []
         for f in self.bank.filters:
-            fams = []
-            if {"range", "doppler"} & set(f.processes):
-                fams.append("radio")
-            if "optical" in f.processes:
-                fams.append("optical")
+            fams: list[str] = []
+            for kind, model in kinds.REGISTRY.items():
+                if kind in f.processes and model.family not in fams:
+                    fams.append(model.family)
             out.append(FilterFamily(name=f.name, families=tuple(fams) or ("other",),
                                     high_q=f.high_q))
         return tuple(out)

@@ -41,6 +41,7 @@ sampled process at the nodes. (The white-FM phase wander inside one node step, s
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 
@@ -162,7 +163,13 @@ class ClockTruth:
                 raise ClockError(f"bad clock step window [{s.t_on}, {s.t_off})")
         return ClockTruth(self.t_nodes, self.nodes, self.steps + tuple(steps))
 
-    def state(self, t_tdb) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    @overload
+    def state(self, t_tdb: float) -> tuple[float, float, float]: ...
+
+    @overload
+    def state(self, t_tdb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+    def state(self, t_tdb: float | np.ndarray) -> tuple[float, float, float] | tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(phase [s], fractional frequency [1], drift [1/s]) at TDB ``t_tdb`` (scalar or array)."""
         t = np.asarray(t_tdb, dtype=float)
         scalar = t.ndim == 0

@@ -72,7 +72,7 @@ def iter_jsonl(path: str | Path) -> Iterator[tuple[str, object]]:
             if expected is not cls:
                 raise JsonlError(name, lineno, f"topic {topic} carries {expected.__name__}, not {type_name}")
             try:
-                msg = codec.from_dict(cls, rec["msg"])
+                msg: object = codec.from_dict(cls, rec["msg"])
             except codec.ICDError as exc:
                 raise JsonlError(name, lineno, str(exc)) from None
             yield topic, msg

@@ -16,7 +16,7 @@ from __future__ import annotations
 import heapq
 import math
 from dataclasses import dataclass, field
-from typing import Iterator
+from typing import Iterator, cast
 
 import numpy as np
 
@@ -25,6 +25,7 @@ from fsw.interface import topics
 from fsw.interface.messages import FaultEvent, Measurement, Stamp, Truth
 from sim.clock import ClockTruth, simulate_clock
 from sim.config import SimConfig
+from sim.dynamics.propagator import Trajectory
 from sim.faults.apply import (
     FaultWindow,
     active_ids,
@@ -80,7 +81,7 @@ class SimRun:
     t_true: np.ndarray = field(default_factory=lambda: np.zeros(0))
     origin: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
     index: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    trajectory: object | None = None
+    trajectory: Trajectory | None = None
     clock: ClockTruth | None = None
     windows: tuple[FaultWindow, ...] = ()
     radio: RadioData | None = None
@@ -99,7 +100,7 @@ class SimRun:
             raise ValueError("this run has no trajectory truth (a linear scenario)")
         return self.trajectory.state(t_tdb)
 
-    def iter_messages(self) -> Iterator[tuple[str, object]]:
+    def iter_messages(self) -> Iterator[tuple[str, FaultEvent | Truth | Measurement]]:
         """(topic, message) for every message in time order (fault events, then truth, then
         measurements at equal times). Topics are the bare ``fsw.interface.topics`` names."""
         faults = ((e.t_s, 0, i, topics.SIM_FAULTS, e) for i, e in enumerate(self.fault_events))
@@ -107,7 +108,7 @@ class SimRun:
         t_meas = self.t_true if self.t_true.size == len(self.measurements) else [m.t_s for m in self.measurements]
         meas = ((float(t), 2, i, topics.SIM_MEASUREMENTS, m) for i, (t, m) in enumerate(zip(t_meas, self.measurements)))
         for _, _, _, topic, msg in heapq.merge(faults, truth, meas, key=lambda x: (x[0], x[1], x[2])):
-            yield topic, msg
+            yield topic, cast("FaultEvent | Truth | Measurement", msg)
 
     def counts(self) -> dict[str, int]:
         """Number of measurements per kind."""

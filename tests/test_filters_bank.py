@@ -12,6 +12,7 @@ from fsw.filters.config import BankConfig, FilterConfig
 from fsw.filters.errors import MeasurementRejected, UnknownFilter
 from fsw.filters.kalman import is_spd
 from fsw.filters.presets import PRESETS, preset
+from fsw.filters.radiometric_kinds import doppler_clock_variance, predict_doppler
 from fsw.interface.typed import decode, encode
 from fsw.models.environment import Environment
 from tools.bench.synthetic import make_run
@@ -218,8 +219,8 @@ def test_doppler_count_reuses_the_propagation_leg_after_an_update(run):
     st.x[:, 3:6] += 2e-6
     st.x[:, L.slices["srp_bias"]] += 0.01
     assert st._last_leg is not None
-    h_leg, H_leg = st.predict_doppler("DSS-14", t, 60.0, st.x)
-    h_back, H_back = st.predict_doppler("DSS-14", t, 60.0, st.x.copy())  # not the bank state: propagates back
+    h_leg, H_leg = predict_doppler(st, "DSS-14", t, 60.0, st.x)
+    h_back, H_back = predict_doppler(st, "DSS-14", t, 60.0, st.x.copy())  # not the bank state: propagates back
     np.testing.assert_allclose(h_leg, h_back, rtol=0, atol=1e-11)  # km/s; the noise is 1e-7
     scale = np.sqrt(np.diagonal(st.P, axis1=1, axis2=2))
     for i in range(3):
@@ -229,7 +230,7 @@ def test_doppler_count_reuses_the_propagation_leg_after_an_update(run):
 
 def test_doppler_noise_carries_the_clock_short_term_instability(run):
     bank = _bank(run)
-    v = bank.stack.doppler_clock_variance(60.0)
+    v = doppler_clock_variance(bank.stack, 60.0)
     # DSAC-class default: white FM 1.6e-15 Allan deviation at one day, σ_y² ∝ 1/τ, plus the
     # random-walk FM that brings the one-day deviation to 2e-15 (σ_y² ∝ τ)
     white = (1.6e-15) ** 2 * 86400.0 / 60.0

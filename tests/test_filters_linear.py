@@ -136,11 +136,11 @@ def test_weighted_and_best_estimates():
     bank.step(np.array([1.0, 2.0]))
     est = bank.estimates(weights=[0.25, 0.75])
     x_opt = 0.25 * bank.x[0] + 0.75 * bank.x[1]
-    np.testing.assert_allclose(est["combined"][0], x_opt)
+    np.testing.assert_allclose(est["combined"].x, x_opt)
     d0, d1 = bank.x[0] - x_opt, bank.x[1] - x_opt
     P_mix = 0.25 * (bank.P[0] + np.outer(d0, d0)) + 0.75 * (bank.P[1] + np.outer(d1, d1))
-    np.testing.assert_allclose(est["combined"][1], P_mix, atol=1e-12)
-    np.testing.assert_array_equal(est["best"][0], bank.x[1])
+    np.testing.assert_allclose(est["combined"].P, P_mix, atol=1e-12)
+    np.testing.assert_array_equal(est["best"].x, bank.x[1])
 
 
 def _exact_joseph(F, Q, H, R, P0):

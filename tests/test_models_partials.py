@@ -14,6 +14,8 @@ import pytest
 
 from fsw.filters.config import BankConfig, FilterConfig, PolyAccelConfig
 from fsw.filters.ekf import EKFStack
+from fsw.filters.optical_kind import predict_optical
+from fsw.filters.radiometric_kinds import predict_doppler, predict_range
 from fsw.models.environment import Environment
 from fsw.models.forces import acceleration
 from tools.bench.synthetic import _camera_to_icrf, entry_state
@@ -89,8 +91,8 @@ def _sigma(st: EKFStack) -> np.ndarray:
 def test_range_partials(station):
     st = _stack(48.0)
     t = st.t
-    h, H = st.predict_range(station, t, st.x)
-    H_fd = _fd(lambda x: st.predict_range(station, t, x)[0], st.x, _steps(st, 1e3))
+    h, H = predict_range(st, station, t, st.x)
+    H_fd = _fd(lambda x: predict_range(st, station, t, x)[0], st.x, _steps(st, 1e3))
     _check(H, H_fd, _sigma(st))
 
 
@@ -98,10 +100,10 @@ def test_range_includes_clock_phase_as_c_delta():
     # independent hand check: 1 µs of clock phase is ~c·1e-6 km of range
     st = _stack(30.0)
     c = st.layout.slices["clock"].start
-    h0 = st.predict_range("DSS-14", st.t, st.x)[0][0, 0]
+    h0 = predict_range(st, "DSS-14", st.t, st.x)[0][0, 0]
     x = st.x.copy()
     x[0, c] += 1e-6
-    h1 = st.predict_range("DSS-14", st.t, x)[0][0, 0]
+    h1 = predict_range(st, "DSS-14", st.t, x)[0][0, 0]
     assert h1 - h0 == pytest.approx(0.299792458, rel=1e-3)
 
 
@@ -109,9 +111,9 @@ def test_range_includes_clock_phase_as_c_delta():
 def test_doppler_partials(hours):
     st = _stack(hours)
     t = st.t
-    h, H = st.predict_doppler("DSS-43", t, 60.0, st.x)
+    h, H = predict_doppler(st, "DSS-43", t, 60.0, st.x)
     steps = _steps(st, 1e4 if hours > 100 else 1e3, srp=10.0, acs=100.0, accel=1e-5, phase=1e-3, tilt=100.0)
-    H_fd = _fd(lambda x: st.predict_doppler("DSS-43", t, 60.0, x)[0], st.x, steps)
+    H_fd = _fd(lambda x: predict_doppler(st, "DSS-43", t, 60.0, x)[0], st.x, steps)
     _check(H, H_fd, _sigma(st))
 
 
@@ -119,7 +121,7 @@ def test_doppler_is_the_range_rate_plus_c_times_frequency():
     # independent check: differenced range of the range model over the count interval
     st = _stack(100.0)
     t, T = st.t, 60.0
-    d = st.predict_doppler("DSS-63", t, T, st.x)[0][0, 0]
+    d = predict_doppler(st, "DSS-63", t, T, st.x)[0][0, 0]
     back = EKFStack(st.config, t, st.x[0, 0:3], st.x[0, 3:6], ENV)
     back.x[:] = st.x
     r_s, v_s, _ = st.propagator.propagate(t, t - T, st.x[:, 0:3], st.x[:, 3:6], st.drivers())
@@ -128,8 +130,8 @@ def test_doppler_is_the_range_rate_plus_c_times_frequency():
     c = st.layout.slices["clock"].start
     phase, freq, drift = st.x[0, c : c + 3]
     x_s[0, c] = phase - freq * T + 0.5 * drift * T * T  # the clock phase at the start of the count
-    r_end = st.predict_range("DSS-63", t, st.x)[0][0, 0]
-    r_start = st.predict_range("DSS-63", t - T, x_s)[0][0, 0]
+    r_end = predict_range(st, "DSS-63", t, st.x)[0][0, 0]
+    r_start = predict_range(st, "DSS-63", t - T, x_s)[0][0, 0]
     # the range model puts the start reception at t − T − δ_start, the Doppler model at
     # t − T − δ_end: a shift of (δ_end − δ_start) ~ 2e-11 s, i.e. ~1e-10 km/s here
     assert d == pytest.approx((r_end - r_start) / T, abs=1e-9)
@@ -144,8 +146,8 @@ def test_optical_partials(target, aberration):
     q = __import__("fsw.astro.frames", fromlist=["matrix_to_quat"]).matrix_to_quat(
         _camera_to_icrf(r_t - st.x[0, 0:3] + np.array([30.0, -20.0, 10.0]))
     )
-    h, H = st.predict_optical(target, t, q, st.x)
-    H_fd = _fd(lambda x: st.predict_optical(target, t, q, x)[0], st.x, _steps(st, 10.0))
+    h, H = predict_optical(st, target, t, q, st.x)
+    H_fd = _fd(lambda x: predict_optical(st, target, t, q, x)[0], st.x, _steps(st, 10.0))
     _check(H, H_fd, _sigma(st))
     assert np.all(np.abs(h - 512.5) < 512)  # target in the image
 

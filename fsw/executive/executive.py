@@ -33,7 +33,7 @@ from fsw.executive.config import BudgetConfig
 from fsw.executive.meter import CpuMeter, WorkUnitMeter, measured_interval
 from fsw.executive.report import BudgetReportData, DrainResult, ExecutiveStats, StageError
 from fsw.executive.schedule import JobState, StageQueue
-from fsw.executive.work import Job, JobError, JobOrderError
+from fsw.executive.work import Job, JobError, JobOrderError, Stage
 
 
 class FrameTimeError(ValueError):
@@ -242,7 +242,7 @@ class FrameExecutive:
             backlog_warning=warning,
         )
 
-    def _record_error(self, frame: int, state: JobState, stage, exc: Exception) -> None:
+    def _record_error(self, frame: int, state: JobState, stage: Stage, exc: Exception) -> None:
         self._error_count += 1
         error = StageError(
             frame=frame,

@@ -3,67 +3,39 @@
 For every measurement j the bank propagates all filters to the time tag, predicts the
 measurement with every filter — including filters that do not process that kind, because the
 gating networks need z̄_ij = y_j − h_ij(x̄_ij) and S_ij = R_ij + H̃_ij P̄_ij H̃_ijᵀ for all of them
-(seed 001 eq. 5, §3.2) — and updates the filters that process it. Outputs: the record, each
-filter's estimate, the weighted-sum estimate x̂_opt = Σ p_i x̂_i (seed 003 eq. 3) and the
-best-filter estimate (seed 001 §2).
+(Lubey & Ely 2022 eq. 5, §3.2) — and updates the filters that process it. Outputs: the record, each
+filter's estimate, the weighted-sum estimate x̂_opt = Σ p_i x̂_i (Chaer et al. 1997 eq. 3) and the
+best-filter estimate (Lubey & Ely 2022 §2).
 
 A measurement the bank cannot use (NaN, unknown kind or source, wrong size, time running
 backwards, ...) raises :class:`MeasurementRejected` before any filter state is touched and is
 counted in ``bank.rejected`` by reason.
 
-Measurement noise R is the reported sigma (times the filter's ``sigma_scale``) squared; a
-one-way Doppler count also carries the onboard clock's own short-term instability over the
-count, which the reported (thermal) sigma does not include and the clock states cannot
-represent (:meth:`fsw.filters.ekf.EKFStack.doppler_clock_variance`).
+Measurement noise R is the reported sigma (times the filter's ``sigma_scale``) squared, plus
+whatever variance the kind's model adds (a one-way Doppler count: the onboard clock's own
+short-term instability over the count). What each kind is screened for and how it is predicted
+is its model's business (:mod:`fsw.filters.kinds`); the bank names no kind.
 """
 
 from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from fsw.astro.stations import StationError
+from fsw.filters import kinds
 from fsw.filters.combine import best_index, normalised_weights, weighted_estimate
-from fsw.filters.config import FILTER_KINDS, BankConfig
+from fsw.filters.config import BankConfig
 from fsw.filters.ekf import EKFStack
+from fsw.filters.estimate import FilterEstimate
 from fsw.filters.errors import MeasurementRejected, UnknownFilter
 from fsw.filters.record import BankRecord
 from fsw.filters.validate import screen
-from fsw.interface.messages import MEASUREMENT_DIMENSION
-from fsw.models.environment import OPTICAL_TARGETS, Environment
+from fsw.interface.messages import Measurement
+from fsw.models.environment import Environment
 from fsw.models.optical import GeometryError
-
-
-@dataclass(frozen=True)
-class FilterEstimate:
-    """A filter's (or the combined) estimate in its own state layout."""
-
-    name: str
-    t: float
-    state_names: tuple[str, ...]
-    x: np.ndarray
-    P: np.ndarray
-
-    @property
-    def position_km(self) -> np.ndarray:
-        return self.x[0:3]
-
-    @property
-    def velocity_km_s(self) -> np.ndarray:
-        return self.x[3:6]
-
-    @property
-    def position_sigma_km(self) -> float:
-        """Root of the trace of the position covariance (RTPC, seed 001 §4.2)."""
-        return float(math.sqrt(max(np.trace(self.P[0:3, 0:3]), 0.0)))
-
-    @property
-    def sigma(self) -> np.ndarray:
-        return np.sqrt(np.clip(np.diag(self.P), 0.0, None))
 
 
 _EYES = {m: np.eye(m) for m in range(1, 7)}
@@ -72,13 +44,13 @@ _EYES = {m: np.eye(m) for m in range(1, 7)}
 class FilterBank:
     """A bank of extended Kalman filters (see the module docstring)."""
 
-    KINDS: tuple[str, ...] = FILTER_KINDS
+    KINDS: tuple[str, ...] = kinds.FILTER_KINDS
     #: Time tags may run backwards by this much (onboard-clock jitter between measurements,
     #: a first measurement tagged a clock error before the initial epoch); such a measurement
     #: is processed at the bank epoch (≤ 0.5 m of motion). Anything earlier is refused.
     TIME_TOLERANCE_S = 1e-4
 
-    def __init__(self, config: BankConfig, t0: float, position_km: Any, velocity_km_s: Any,
+    def __init__(self, config: BankConfig, t0: float, position_km: ArrayLike, velocity_km_s: ArrayLike,
                  env: Environment | None = None):
         self.config = config
         self.stack = EKFStack(config, t0, position_km, velocity_km_s, env)
@@ -180,51 +152,22 @@ class FilterBank:
             raise ValueError(f"unknown parameter {param!r}")
 
     # -- processing ----------------------------------------------------------------------------
-    def _screen(self, meas: Any) -> tuple[np.ndarray, np.ndarray]:
-        value, sigma = screen(meas, self.KINDS, MEASUREMENT_DIMENSION)
+    def _screen(self, meas: Measurement) -> tuple[np.ndarray, np.ndarray]:
+        value, sigma = screen(meas, kinds.DIMENSIONS)
         t = float(meas.t_s)
         if t < self.t - self.TIME_TOLERANCE_S:
             raise MeasurementRejected("out_of_order", f"time tag {t} is before the bank epoch {self.t}")
         if not self.stack.env.covers(t):
             raise MeasurementRejected("out_of_range", f"time tag {t} is outside the onboard ephemeris")
-        source = getattr(meas, "source", None)
-        if meas.kind in ("range", "doppler"):
-            try:
-                self.stack.env.check_station(source)
-            except StationError as exc:
-                raise MeasurementRejected("unknown_source", str(exc)) from None
-        if meas.kind == "doppler":
-            T = getattr(meas, "count_time_s", None)
-            if T is None or isinstance(T, bool) or not isinstance(T, (int, float)) or not math.isfinite(T) or T <= 0.0:
-                raise MeasurementRejected("bad_count_time", f"Doppler needs a positive finite count_time_s, got {T!r}")
-        if meas.kind == "optical":
-            if source not in OPTICAL_TARGETS:
-                raise MeasurementRejected("unknown_source", f"unknown optical target {source!r}; known: {OPTICAL_TARGETS}")
-            q = getattr(meas, "attitude_q", None)
-            if q is None:
-                raise MeasurementRejected("missing_field", "an optical measurement needs attitude_q")
-            try:
-                qa = np.asarray(q, dtype=float)
-            except (TypeError, ValueError):
-                raise MeasurementRejected("non_finite", f"attitude_q is not numeric: {q!r}") from None
-            if qa.shape != (4,):
-                raise MeasurementRejected("bad_dimension", f"attitude_q needs 4 components, got shape {qa.shape}")
-            if not np.all(np.isfinite(qa)) or float(qa @ qa) < 1e-12:
-                raise MeasurementRejected("non_finite", f"attitude_q must be a finite non-zero quaternion, got {qa.tolist()}")
+        kinds.model(meas.kind).screen(meas, self.stack.env)
         return value, sigma
 
-    def predict(self, meas: Any, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def predict(self, meas: Measurement, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """h (N, m) and H (N, m, n) of a (screened) measurement at the current bank epoch."""
         st = self.stack
-        x = st.x if x is None else x
-        t = st.t
-        if meas.kind == "range":
-            return st.predict_range(meas.source, t, x)
-        if meas.kind == "doppler":
-            return st.predict_doppler(meas.source, t, float(meas.count_time_s), x)
-        return st.predict_optical(meas.source, t, meas.attitude_q, x)
+        return kinds.model(meas.kind).predict(st, meas, st.t, st.x if x is None else x)
 
-    def process(self, meas: Any) -> BankRecord:
+    def process(self, meas: Measurement) -> BankRecord:
         """Propagate to the measurement, predict it with every filter, update the filters
         that process its kind, and return the record for the gating networks."""
         try:
@@ -242,8 +185,9 @@ class FilterBank:
         kind = meas.kind
         var = self._sigma_scale[kind][:, None] * sigma  # (N, m) per-filter sigmas
         var *= var
-        if kind == "doppler":
-            var += self.stack.doppler_clock_variance(float(meas.count_time_s))[:, None]
+        added = kinds.model(kind).added_variance(self.stack, meas)
+        if added is not None:
+            var += added[:, None]
         m = sigma.size
         R = var[:, :, None] if m == 1 else var[:, :, None] * (_EYES[m] if m in _EYES else np.eye(m))
         does = self._process_masks[kind] & self.active
@@ -261,7 +205,7 @@ class FilterBank:
         self.stack.propagate_to(t)
 
     # -- outputs -------------------------------------------------------------------------------
-    def estimates(self, weights: Any | None = None) -> dict[str, FilterEstimate]:
+    def estimates(self, weights: ArrayLike | None = None) -> dict[str, FilterEstimate]:
         """Every filter's estimate; with gating ``weights`` also 'combined' (weighted sum over
         the states all contributing filters estimate, mixture covariance) and 'best'."""
         out = {name: self.filter(name) for name in self.names}

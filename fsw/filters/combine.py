@@ -1,9 +1,9 @@
 """Bank outputs: the weighted-sum estimate and the best-filter estimate.
 
-Seed 003 eq. 3 (and seed 001 §2): x̂_opt = Σ_i p_i x̂_i, the gating weights p_i summing to one.
+Chaer et al. 1997 eq. 3 (and Lubey & Ely 2022 §2): x̂_opt = Σ_i p_i x̂_i, the gating weights p_i summing to one.
 Its covariance is the mixture covariance Σ_i p_i [P_i + (x̂_i − x̂_opt)(x̂_i − x̂_opt)ᵀ], which
 accounts for the spread between filters as well as each filter's own uncertainty.
-The alternative of seed 001 §2 is to take the estimate of the filter with the highest weight.
+The alternative of Lubey & Ely 2022 §2 is to take the estimate of the filter with the highest weight.
 """
 
 from __future__ import annotations

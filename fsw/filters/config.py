@@ -1,6 +1,6 @@
 """Configuration of the onboard filters and of a filter bank (frozen, validated dataclasses).
 
-Defaults are seed 001 Table 1 (the nominal InSight approach filter): position 100 km and
+Defaults are Lubey & Ely 2022 Table 1 (the nominal InSight approach filter): position 100 km and
 velocity 0.1 m/s a priori (diagonal); SRP scale factor 0.11 bias + 0.03 temporal (1-day
 batches, 7-day correlation); ACS acceleration magnitude 3 % bias + 5 % temporal (1-day batches,
 uncorrelated); ACS thrust orientation 3° (constant random bias). The spacecraft constants (SRP area, mass, Cr; ACS nominal magnitude and thrust
@@ -12,17 +12,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from fsw.filters.kinds import FILTER_KINDS
 from fsw.interface.typed import spec
 from fsw.models.clock import DEFAULT_Q_RANDOM_RUN_PER_S3, DEFAULT_Q_RANDOM_WALK_FM_PER_S, DEFAULT_Q_WHITE_FM_S
 
 DAY_S = 86400.0
-FILTER_KINDS: tuple[str, ...] = ("range", "doppler", "optical")
 
 
 @dataclass(frozen=True, slots=True)
 class BatchedParameterConfig:
-    """A parameter = constant bias + a stochastic part estimated in discrete batches (seed 001
-    Table 1), the batches forming an ECRV (seed 000 eqs. 25–26). Sigmas of 0 drop the part."""
+    """A parameter = constant bias + a stochastic part estimated in discrete batches (Lubey & Ely 2022
+    Table 1), the batches forming an ECRV (Chaer et al. 1998 eqs. 25–26). Sigmas of 0 drop the part."""
 
     bias_sigma: float = spec(doc="1-sigma of the constant bias", unit="1", ge=0.0)
     temporal_sigma: float = spec(doc="steady-state 1-sigma of the batched stochastic part", unit="1", ge=0.0)
@@ -67,12 +67,12 @@ class AcsConfig:
 
 @dataclass(frozen=True, slots=True)
 class PolyAccelConfig:
-    """Batched polynomial acceleration on the inertial axes (seed 001 §4.4 process-noise model).
+    """Batched polynomial acceleration on the inertial axes (Lubey & Ely 2022 §4.4 process-noise model).
 
     Without ``correlation_time_s`` the coefficients are re-initialised each batch (independent
-    batches). With it each coefficient is an ECRV stepping at the batch edges by seed 000 eqs.
+    batches). With it each coefficient is an ECRV stepping at the batch edges by Chaer et al. 1998 eqs.
     25–26 (x ← m x, P ← m² P + σ² (1 − m²), m = exp(−T_b/τ)): degree 0 with hour batches is
-    seed 000's non-gravitational acceleration model."""
+    Chaer et al. 1998's non-gravitational acceleration model."""
 
     sigma_km_s2: float = spec(
         0.0, doc="a-priori (and steady-state) 1-sigma of every coefficient; 0 disables the block", unit="km/s^2", ge=0.0
@@ -152,7 +152,7 @@ class FilterConfig:
     sigma_scale: dict[str, float] = spec(default_factory=dict, doc="multiplier on the reported sigma, per kind")
     camera: CameraConfig = spec(CameraConfig(), doc="camera model")
     gate_chi2: float | None = spec(None, doc="edit (do not process) a measurement with chi-square above this", gt=0.0)
-    high_q: bool = spec(False, doc="carries inflated dynamic process noise (a -Q filter of seed 001 §4.4)")
+    high_q: bool = spec(False, doc="carries inflated dynamic process noise (a -Q filter of Lubey & Ely 2022 §4.4)")
 
     def __post_init__(self) -> None:
         bad = [k for k in self.processes if k not in FILTER_KINDS]

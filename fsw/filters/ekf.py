@@ -12,15 +12,16 @@ Propagation between measurements (t → t'):
   (clock block Φ_c = [[1, h, h²/2], [0, 1, h], [0, 0, 1]], identity for the other parameters);
 * P ← Φ P Φᵀ + Q with the clock process noise (:mod:`fsw.models.clock`) and optional white
   acceleration noise on the velocity (SNC: Q_rr = q h³/3, Q_rv = q h²/2, Q_vv = q h);
-* at every batch boundary the batched stochastic parameters step as ECRVs (seed 000 eqs.
-  25–26; seed 001 Table 1), the polynomial acceleration coefficients are re-initialised (or,
-  with a correlation time, step as ECRVs: seed 000's non-gravitational acceleration); at a
+* at every batch boundary the batched stochastic parameters step as ECRVs (Chaer et al. 1998 eqs.
+  25–26; Lubey & Ely 2022 Table 1), the polynomial acceleration coefficients are re-initialised (or,
+  with a correlation time, step as ECRVs: Chaer et al. 1998's non-gravitational acceleration); at a
   manoeuvre epoch the planned Δv is added and its execution uncertainty added to P_vv.
   Batches are counted from the bank's initial epoch (the spacecraft schedules its own daily
   ACS activity from the start of the arc) unless ``batch_origin_tdb_s`` says otherwise.
 
-Measurement models: one-way range and Doppler (:mod:`fsw.models.radiometric`), optical
-(:mod:`fsw.models.optical`). A Doppler count needs the state at its start, T before the time
+Measurement models live with their kinds (:mod:`fsw.filters.kinds`); the stack gives them the
+clock states, the camera models and, for a Doppler count, the state at the count's start
+(:meth:`EKFStack.count_start`). A Doppler count needs the state at its start, T before the time
 tag; with one measurement per count interval that is exactly where the last propagation leg
 began, so the leg's start state and STM serve (no propagation back) — also after a measurement
 update at the leg's end, carried to the start through the STM.
@@ -31,17 +32,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from fsw.astro.constants import C_KM_S
 from fsw.filters import kalman
 from fsw.filters.config import BankConfig, FilterConfig
 from fsw.models.clock import clock_process_noise, clock_transition
 from fsw.models.environment import Environment
 from fsw.models.forces import ForceParameters, srp_coefficient
 from fsw.models.layout import StateLayout
-from fsw.models.optical import optical
 from fsw.models.propagator import Propagator
-from fsw.models.radiometric import uplink, uplinks
 from fsw.models.stochastic import apply_ecrv_step, batch_boundaries, ecrv_factors
 
 _EYE3 = np.eye(3)
@@ -92,7 +91,7 @@ class _Batched:
 class EKFStack:
     """N extended Kalman filters on a common union layout, propagated and updated together."""
 
-    def __init__(self, config: BankConfig, t0: float, r0, v0, env: Environment | None = None):
+    def __init__(self, config: BankConfig, t0: float, r0: ArrayLike, v0: ArrayLike, env: Environment | None = None):
         self.config = config
         cfgs = config.filters
         self.names = tuple(f.name for f in cfgs)
@@ -101,15 +100,15 @@ class EKFStack:
         self.env = env if env is not None else Environment()
         n = L.n
         self.t = float(t0)
-        r0 = np.asarray(r0, dtype=float)
-        v0 = np.asarray(v0, dtype=float)
-        if r0.shape != (3,) or v0.shape != (3,) or not (np.all(np.isfinite(r0)) and np.all(np.isfinite(v0))):
+        r = np.asarray(r0, dtype=float)
+        v = np.asarray(v0, dtype=float)
+        if r.shape != (3,) or v.shape != (3,) or not (np.all(np.isfinite(r)) and np.all(np.isfinite(v))):
             raise ValueError("initial position and velocity must be finite 3-vectors")
 
         sig = np.zeros((N, n))
         self.x = np.zeros((N, n))
-        self.x[:, 0:3] = r0
-        self.x[:, 3:6] = v0
+        self.x[:, 0:3] = r
+        self.x[:, 3:6] = v
         for i, f in enumerate(cfgs):
             sig[i, 0:3] = f.position_sigma_km
             sig[i, 3:6] = f.velocity_sigma_km_s
@@ -276,13 +275,24 @@ class EKFStack:
                 self._next_event = rest[0] if rest else math.inf
         self._propagate_interval(t1)
 
-    # -- measurement models ---------------------------------------------------------------------
-    def _clock_state(self, x: np.ndarray, k: int) -> np.ndarray:
+    # -- what the measurement models read -------------------------------------------------------
+    @property
+    def clock_columns(self) -> tuple[int, int] | None:
+        """[start, stop) of the clock block in the union layout (None: no clock states)."""
+        return self._clock
+
+    @property
+    def z_to_state(self) -> np.ndarray:
+        """(6 + n_q, n): maps the dynamics sensitivity columns [r, v, q] onto state columns."""
+        return self._z_to_state
+
+    def clock_state(self, x: np.ndarray, k: int) -> np.ndarray:
+        """Clock component k (0 phase, 1 frequency, 2 drift) of every filter; 0 where absent."""
         if self._clock is None or self._clock[1] - self._clock[0] <= k:
             return np.zeros(x.shape[0])
         return x[:, self._clock[0] + k]
 
-    def _count_start(self, t: float, count_s: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def count_start(self, t: float, count_s: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """[r, v] at t − T and its sensitivity Yb = ∂[r, v](t − T)/∂[r, v, q](t).
 
         If the last propagation leg ran from t − T to the current epoch, its start serves: the
@@ -306,74 +316,10 @@ class EKFStack:
             return z_start[:, 0:3], z_start[:, 3:6], Yb
         return self.propagator.propagate(t, t - count_s, x[:, 0:3], x[:, 3:6], self.drivers(x))
 
-    def predict_range(self, station: str, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """h (N, 1) and H (N, 1, n) of one-way range (see :mod:`fsw.models.radiometric`)."""
-        L = self.layout
-        delta = self._clock_state(x, 0)
-        g = uplink(self.env, station, t, x[:, 0:3], x[:, 3:6], delta)
-        N = x.shape[0]
-        H = np.zeros((N, 1, L.n))
-        H[:, 0, 0:3] = g.d_rho_d_r
-        H[:, 0, 3:6] = g.d_rho_d_v
-        h = g.rho + C_KM_S * delta
-        if self._clock is not None:
-            H[:, 0, self._clock[0]] = C_KM_S + g.d_rho_d_delta
-        if L.has("range_bias"):
-            h = h + x[:, L.slices["range_bias"].start]
-            H[:, 0, L.slices["range_bias"].start] = 1.0
-        return h[:, None], H
-
-    def predict_doppler(self, station: str, t: float, count_s: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """h (N, 1) and H (N, 1, n) of one-way Doppler over the count interval ending at t."""
-        L = self.layout
-        N = x.shape[0]
-        delta = self._clock_state(x, 0)
-        freq = self._clock_state(x, 1)
-        drift = self._clock_state(x, 2)
-        r_s, v_s, Yb = self._count_start(t, count_s, x)
-        # both ends of the count in one light-time solution: [end, start]
-        g = uplinks(self.env, station, (t, t - count_s), np.stack([x[:, 0:3], r_s]), np.stack([x[:, 3:6], v_s]), delta)
-        h = (g.rho[0] - g.rho[1]) / count_s + C_KM_S * (freq - 0.5 * drift * count_s)
-        # start geometry through the backward sensitivity Yb = ∂[r, v]_start / ∂[r, v, q]_end
-        g_start = np.concatenate([g.d_rho_d_r[1], g.d_rho_d_v[1]], axis=1)  # (N, 6)
-        d_start = np.matmul(g_start[:, None, :], Yb)[:, 0, :]  # (N, 6 + n_q)
-        d_end = np.zeros((N, 6 + L.n_q))
-        d_end[:, 0:3] = g.d_rho_d_r[0]
-        d_end[:, 3:6] = g.d_rho_d_v[0]
-        H = ((d_end - d_start) / count_s) @ self._z_to_state
-        if self._clock is not None:
-            c = self._clock[0]
-            k = self._clock[1] - c
-            H[:, c] = (g.d_rho_d_delta[0] - g.d_rho_d_delta[1]) / count_s
-            if k > 1:
-                H[:, c + 1] = C_KM_S
-            if k > 2:
-                H[:, c + 2] = -0.5 * C_KM_S * count_s
-        return h[:, None], H[:, None, :]
-
-    def doppler_clock_variance(self, count_s: float) -> np.ndarray:
-        """(N,) variance [km²/s²] the clock adds to a one-way Doppler beyond its model c (f − a T/2).
-
-        The count measures the phase change over T, (b_end − b_start)/T; white FM (q1) moves the
-        phase by a random walk of variance q1 T inside the count and random-walk FM (q2) makes
-        the mean frequency over the count differ from the modelled one by variance q2 T/3.
-        Neither is in the frequency state, so each count carries c² (q1/T + q2 T/3) of its own
-        (the Allan variance at τ = T of those two noises; 0.018 mm/s for a DSAC-class clock at
-        60 s). Filters without clock states model no clock noise here."""
-        q = self.clock_q
-        return C_KM_S**2 * (q[:, 0] / count_s + q[:, 1] * count_s / 3.0)
-
-    def predict_optical(self, target: str, t: float, attitude_q, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """h (N, 2) and H (N, 2, n) of the [sample, line] of a target (see :mod:`fsw.models.optical`)."""
-        cams = self._cameras
-        h, Hr, Hv = optical(self.env, target, t, x[:, 0:3], x[:, 3:6], np.asarray(attitude_q, dtype=float), *cams)
-        H = np.zeros((x.shape[0], 2, self.layout.n))
-        H[:, :, 0:3] = Hr
-        H[:, :, 3:6] = Hv
-        return h, H
-
     @property
-    def _cameras(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def cameras(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per-filter camera model: focal length [px], principal point [px], light-time and
+        aberration flags (the arguments of :func:`fsw.models.optical.optical`)."""
         cached = self.__dict__.get("_camera_arrays")
         if cached is None:
             cams = [f.camera for f in self.config.filters]

@@ -64,7 +64,7 @@ def inverse_spd(S: np.ndarray) -> np.ndarray:
 
 
 def chi_square(residual: np.ndarray, S_inv: np.ndarray) -> np.ndarray:
-    """z̄ᵀ S⁻¹ z̄ per filter (seed 001 eq. 6, G_k,i,j)."""
+    """z̄ᵀ S⁻¹ z̄ per filter (Lubey & Ely 2022 eq. 6, G_k,i,j)."""
     return np.vecdot(residual, np.matvec(S_inv, residual))
 
 

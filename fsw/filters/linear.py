@@ -1,10 +1,12 @@
 """A bank of linear Kalman filters x_{k+1} = F x_k + w_k, z_k = H x_k + v_k, stacked and vectorised.
 
-This is the bank of seed 003 §V (the 2-state tracking example, filters differing by α = [q1 q2 r1
+This is the bank of Chaer et al. 1997 §V (the 2-state tracking example, filters differing by α = [q1 q2 r1
 r2], eq. 26) and the reference bank of the benchmark. Every filter keeps its own F, Q, H, R; all
 of them live in stacked arrays so predict and update are a handful of batched matrix products,
 whatever the number of filters. Like the EKF bank it emits one ``BankRecord`` per measurement,
-with the residual, innovation covariance and chi-square of every filter.
+with the residual, innovation covariance and chi-square of every filter, and it satisfies the
+same :class:`fsw.filters.protocol.Bank`. It processes the ICD's ``generic-linear`` kind, whose
+dimension the scenario's H fixes.
 """
 
 from __future__ import annotations
@@ -12,18 +14,23 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
-from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from fsw.filters import kalman
 from fsw.filters.combine import best_index, normalised_weights, weighted_estimate
 from fsw.filters.errors import MeasurementRejected, UnknownFilter
+from fsw.filters.estimate import StateEstimate
 from fsw.filters.record import BankRecord
 from fsw.filters.validate import screen
+from fsw.interface.kinds import GENERIC_LINEAR
+from fsw.interface.messages import Measurement
+
+_KIND = GENERIC_LINEAR.name
 
 
-def _stack(a: Any, N: int, shape: tuple[int, ...], name: str) -> np.ndarray:
+def _stack(a: ArrayLike, N: int, shape: tuple[int, ...], name: str) -> np.ndarray:
     arr = np.array(a, dtype=float)
     if arr.shape == shape:
         arr = np.broadcast_to(arr, (N, *shape)).copy()
@@ -47,17 +54,17 @@ class LinearFilterBank:
     gate_chi2 : per filter, residual editing threshold on z̄ᵀS⁻¹z̄ (None: no editing).
     """
 
-    KINDS: tuple[str, ...] = ("generic-linear",)
+    KINDS: tuple[str, ...] = (_KIND,)
 
     def __init__(
         self,
         names: Sequence[str],
-        F: Any,
-        Q: Any,
-        H: Any,
-        R: Any,
-        x0: Any,
-        P0: Any,
+        F: ArrayLike,
+        Q: ArrayLike,
+        H: ArrayLike,
+        R: ArrayLike,
+        x0: ArrayLike,
+        P0: ArrayLike,
         processes: Sequence[Iterable[str]] | None = None,
         gate_chi2: Sequence[float | None] | None = None,
     ):
@@ -76,7 +83,7 @@ class LinearFilterBank:
         self._PX = np.empty((N, n, n + 1))
         self._PX[:, :, :n] = _stack(P0, N, (n, n), "P0")
         self._PX[:, :, n] = -_stack(x0, N, (n,), "x0")
-        kinds = [frozenset(self.KINDS) if processes is None else frozenset(p) for p in (processes or [None] * N)]
+        kinds = [frozenset(self.KINDS)] * N if processes is None else [frozenset(p) for p in processes]
         if len(kinds) != N:
             raise ValueError("processes needs one entry per filter")
         self.processes = tuple(kinds)
@@ -93,11 +100,17 @@ class LinearFilterBank:
         self._all_true.flags.writeable = False  # shared by every record: nobody may mutate it
         self.rejected: Counter[str] = Counter()
         self.t = 0.0
+        self._updates = 0
         self._z_shape = (m,)
         self._n = n
         # workspace of the all-filters step: A[P | −x]
         self._work = np.empty((N, n + m, n + 1))
         self._rebuild()
+
+    @property
+    def processed_count(self) -> int:
+        """Measurement updates done (every one, whether it came through :meth:`process` or not)."""
+        return self._updates
 
     @property
     def x(self) -> np.ndarray:
@@ -120,11 +133,11 @@ class LinearFilterBank:
         self.active[self.index(name)] = enabled
         self._all_active = bool(self.active.all())
 
-    def set_process_noise(self, name: str, Q: Any) -> None:
+    def set_process_noise(self, name: str, Q: ArrayLike) -> None:
         self.Q[self.index(name)] = _stack(Q, 1, self.Q.shape[1:], "Q")[0]
         self._rebuild()
 
-    def set_measurement_noise(self, name: str, R: Any) -> None:
+    def set_measurement_noise(self, name: str, R: ArrayLike) -> None:
         self.R[self.index(name)] = _stack(R, 1, self.R.shape[1:], "R")[0]
         self._rebuild()
 
@@ -185,8 +198,8 @@ class LinearFilterBank:
         PX[:, :, :n] = PX[:, :, :n] @ F.transpose(0, 2, 1) + self.Q[a]
         self._PX[a] = PX
 
-    def _check(self, z: Any) -> np.ndarray:
-        z = np.asarray(z, dtype=float)
+    def _check(self, values: ArrayLike) -> np.ndarray:
+        z = np.asarray(values, dtype=float)
         if z.shape != self._z_shape:
             m = self._z_shape[0]
             self.rejected["bad_dimension"] += 1
@@ -196,16 +209,16 @@ class LinearFilterBank:
             raise MeasurementRejected("non_finite", f"measurement {z.tolist()} is not finite")
         return z
 
-    def update(self, z: Any, *, t: float = 0.0, seq: int = 0, kind: str = "generic-linear") -> BankRecord:
+    def update(self, z: ArrayLike, *, t: float = 0.0, seq: int = 0, kind: str = _KIND) -> BankRecord:
         """Measurement update with z (m,) for the filters that process ``kind``."""
         return self._advance(self._check(z), t, seq, kind, predict=False)
 
-    def step(self, z: Any, *, t: float = 0.0, seq: int = 0, kind: str = "generic-linear") -> BankRecord:
+    def step(self, z: ArrayLike, *, t: float = 0.0, seq: int = 0, kind: str = _KIND) -> BankRecord:
         """One predict then one update (one measurement per transition step)."""
-        z = self._check(z)
+        zc = self._check(z)
         if self._all_active and self._no_gate and kind in self._every_filter_processes:
-            return self._step_all(z, t, seq, kind, self._A, self._At, self._C)
-        return self._advance(z, t, seq, kind, predict=True)
+            return self._step_all(zc, t, seq, kind, self._A, self._At, self._C)
+        return self._advance(zc, t, seq, kind, predict=True)
 
     def _step_all(self, z: np.ndarray, t: float, seq: int, kind: str, A: np.ndarray, At: np.ndarray,
                   C: np.ndarray) -> BankRecord:
@@ -215,6 +228,7 @@ class LinearFilterBank:
         C[:, n:, n] = z  # C's state column is otherwise zero: [−x̄; −ŷ] + [0; z] = [−x̄; z̄]
         Mt += C
         self._PX, residual, S, chi2, _ = kalman.update_explicit(Mt, n, self._joseph, z)
+        self._updates += 1
         self.t = t = float(t)
         return BankRecord(t, int(seq), kind, self.names, residual, S, chi2, self._all_true, self._all_true)
 
@@ -242,6 +256,7 @@ class LinearFilterBank:
             Mt, n, operands, z, None if self._all_process(kind) else does, gate)
         if processed is None:
             processed = self._all_true if every else np.ones(int(a.sum()), dtype=bool)
+        self._updates += 1
         self.t = float(t)
         if every:
             self._PX = PX_new
@@ -257,23 +272,33 @@ class LinearFilterBank:
         return BankRecord(t=self.t, seq=int(seq), kind=kind, filters=self.names, residual=full_res, S=full_S,
                           chi2=full_chi2, processed=full_processed, active=a.copy())
 
-    def process(self, meas: Any) -> BankRecord:
+    def process(self, meas: Measurement) -> BankRecord:
         """Predict one step and update with an ICD ``Measurement`` of kind ``generic-linear``."""
         try:
-            value, _ = screen(meas, self.KINDS, {"generic-linear": self.H.shape[1]})
+            value, _ = screen(meas, {kind: self.H.shape[1] for kind in self.KINDS})
         except MeasurementRejected as exc:
             self.rejected[exc.reason] += 1
             raise
         return self.step(value, t=float(meas.t_s), seq=int(meas.seq), kind=meas.kind)
 
+    def propagate_to(self, t: float) -> None:
+        """Move the bank's epoch to t. The filters are discrete-time: their state changes only
+        at a transition step (:meth:`step`, :meth:`process`) and holds in between."""
+        t = float(t)
+        if not math.isfinite(t) or t < self.t:
+            raise ValueError(f"cannot propagate from {self.t} back to {t}")
+        self.t = t
+
     # -- outputs ---------------------------------------------------------------------------
-    def estimates(self, weights: Any | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        """Per filter (x, P), plus 'combined' (weighted sum, seed 003 eq. 3) and 'best'
-        (highest weight) when ``weights`` are given."""
-        out = {name: (self.x[i].copy(), self.P[i].copy()) for i, name in enumerate(self.names)}
+    def estimates(self, weights: ArrayLike | None = None) -> dict[str, StateEstimate]:
+        """Per filter (x, P), plus 'combined' (weighted sum, Chaer et al. 1997 eq. 3) and 'best'
+        (highest weight) when ``weights`` are given; states named x[0], x[1], ..."""
+        names = tuple(f"x[{k}]" for k in range(self._n))
+        out = {name: StateEstimate(name, self.t, names, self.x[i].copy(), self.P[i].copy())
+               for i, name in enumerate(self.names)}
         if weights is not None:
             w = normalised_weights(np.asarray(weights, dtype=float), self.active)
-            out["combined"] = weighted_estimate(self.x, self.P, w)
-            b = best_index(w, self.active)
-            out["best"] = (self.x[b].copy(), self.P[b].copy())
+            x_opt, P_opt = weighted_estimate(self.x, self.P, w)
+            out["combined"] = StateEstimate("combined", self.t, names, x_opt, P_opt)
+            out["best"] = out[self.names[best_index(w, self.active)]]
         return out

@@ -1,4 +1,4 @@
-"""Built-in filter banks of seed 001.
+"""Built-in filter banks of Lubey & Ely 2022.
 
 * ``nominal`` (§4.2): ``radio`` (range + Doppler, clock and range-bias states), ``optical``
   (optical only; no clock or range-bias states — the data-type-specific bias terms are removed,
@@ -16,7 +16,10 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
+from fsw.fdir import families
+from fsw.filters import kinds
 from fsw.filters.config import (
     DAY_S,
     AcsConfig,
@@ -28,25 +31,25 @@ from fsw.filters.config import (
     SrpConfig,
 )
 
-RADIO: tuple[str, ...] = ("range", "doppler")
-OPTICAL: tuple[str, ...] = ("optical",)
-FUSED: tuple[str, ...] = ("range", "doppler", "optical")
+RADIO: tuple[str, ...] = kinds.of_family(families.RADIO)
+OPTICAL: tuple[str, ...] = kinds.of_family(families.OPTICAL)
+FUSED: tuple[str, ...] = RADIO + OPTICAL
 
 
-def _family(name: str, kinds: tuple[str, ...], **changes) -> FilterConfig:
-    base = FilterConfig(name=name, processes=kinds)
-    if kinds == OPTICAL:
+def _family(name: str, processes: tuple[str, ...], **changes: Any) -> FilterConfig:
+    base = FilterConfig(name=name, processes=processes)
+    if processes == OPTICAL:
         base = dataclasses.replace(base, clock=ClockConfig(phase_sigma_s=0.0), range_bias_sigma_km=0.0)
     return dataclasses.replace(base, **changes)
 
 
 def nominal_bank() -> BankConfig:
-    """radio / optical / fused (seed 001 §4.2)."""
+    """radio / optical / fused (Lubey & Ely 2022 §4.2)."""
     return BankConfig(filters=(_family("radio", RADIO), _family("optical", OPTICAL), _family("fused", FUSED)))
 
 
 def acs_q_bank() -> BankConfig:
-    """Six filters of the attitude-thruster mis-modelling case (seed 001 §4.4)."""
+    """Six filters of the attitude-thruster mis-modelling case (Lubey & Ely 2022 §4.4)."""
     wide = AcsConfig(magnitude=BatchedParameterConfig(3.0, 10.0, DAY_S, None))
     std = [_family(n, k) for n, k in (("radio", RADIO), ("optical", OPTICAL), ("fused", FUSED))]
     q = [_family(n + "-Q", k, acs=wide, high_q=True) for n, k in (("radio", RADIO), ("optical", OPTICAL), ("fused", FUSED))]
@@ -54,7 +57,7 @@ def acs_q_bank() -> BankConfig:
 
 
 def process_noise_q_bank(low_sigma_km_s2: float = 5e-12, high_sigma_km_s2: float = 5e-11) -> BankConfig:
-    """Six filters of the process-noise case (seed 001 §4.4)."""
+    """Six filters of the process-noise case (Lubey & Ely 2022 §4.4)."""
     no_acs = AcsConfig(magnitude=BatchedParameterConfig(0.0, 0.0, DAY_S, None), direction_sigma_deg=0.0)
     srp_bias_only = SrpConfig(scale=BatchedParameterConfig(0.11, 0.0, DAY_S, None))
     out = []

@@ -1,6 +1,6 @@
 """The per-measurement output of the filter bank: what every gating network consumes.
 
-Seed 001 §3.1 (eq. 5) needs, for every filter i and every measurement j, the predicted residual
+Lubey & Ely 2022 §3.1 (eq. 5) needs, for every filter i and every measurement j, the predicted residual
 z̄_ij = y_j − h_ij(t_j, x̄_ij) and its innovation covariance S_ij = R_ij + H̃_ij P̄_ij H̃_ijᵀ, whether
 or not filter i processes measurement j (§3.2 substitutes G = n_j for unprocessed ones, but
 Magill and the mixture-of-experts networks use all residuals). The bank therefore emits one
@@ -33,7 +33,7 @@ class BankRecord:
     S : ndarray (N, n, n)
         Innovation covariance S_ij = R_ij + H̃_ij P̄_ij H̃_ijᵀ.
     chi2 : ndarray (N,)
-        z̄_ijᵀ S_ij⁻¹ z̄_ij (seed 001 eq. 6, G_k,i,j before the §3.2 substitution).
+        z̄_ijᵀ S_ij⁻¹ z̄_ij (Lubey & Ely 2022 eq. 6, G_k,i,j before the §3.2 substitution).
     processed : ndarray (N,) of bool
         True where filter i processed (updated its state with) measurement j.
     active : ndarray (N,) of bool
@@ -53,7 +53,7 @@ class BankRecord:
 
     @property
     def n(self) -> int:
-        """Measurement dimension n_j (seed 001 §3.2: the mean of a χ²_{n_j} variable)."""
+        """Measurement dimension n_j (Lubey & Ely 2022 §3.2: the mean of a χ²_{n_j} variable)."""
         return int(self.residual.shape[1])
 
     @property
@@ -67,8 +67,8 @@ class BankRecord:
         return np.asarray(self.active, dtype=bool)
 
     def log_likelihood(self) -> np.ndarray:
-        """ln N(z̄; 0, S) per filter: the Gaussian residual density behind Magill (seed 001 eq. 2,
-        seed 003 eq. 7)."""
+        """ln N(z̄; 0, S) per filter: the Gaussian residual density behind Magill (Lubey & Ely 2022 eq. 2,
+        Chaer et al. 1997 eq. 7)."""
         n = self.n
         sign, logdet = np.linalg.slogdet(self.S)
         return -0.5 * (self.chi2 + logdet + n * np.log(2.0 * np.pi))

@@ -7,15 +7,15 @@ message is refused (and counted by the bank) without touching any filter state.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
-from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 
 from fsw.filters.errors import MeasurementRejected
+from fsw.interface.messages import Measurement
 
 
-def _finite_vector(values: Any, name: str) -> np.ndarray:
+def _finite_vector(values: object, name: str) -> np.ndarray:
     try:
         arr = np.array(values, dtype=float)
     except (TypeError, ValueError):
@@ -27,14 +27,14 @@ def _finite_vector(values: Any, name: str) -> np.ndarray:
     return arr
 
 
-def screen(meas: Any, kinds: Iterable[str], dimensions: dict[str, int | None]) -> tuple[np.ndarray, np.ndarray]:
-    """Check one ICD ``Measurement`` (or anything shaped like it) and return (value, sigma).
+def screen(meas: Measurement, dimensions: Mapping[str, int | None]) -> tuple[np.ndarray, np.ndarray]:
+    """Check one ICD ``Measurement`` and return (value, sigma). The message may not have been
+    through the ICD's own checks (hence every field is tested as found, not as declared).
 
-    ``kinds`` are the kinds this bank has models for; ``dimensions`` the expected length of
-    each kind (None: any length).
+    ``dimensions`` maps each kind this bank has a model for to its expected length (None: any).
     """
     kind = getattr(meas, "kind", None)
-    if kind not in set(kinds):
+    if not isinstance(kind, str) or kind not in dimensions:
         raise MeasurementRejected("unknown_kind", f"no model for measurement kind {kind!r}")
     t = getattr(meas, "t_s", None)
     if isinstance(t, bool) or not isinstance(t, (int, float, np.floating)) or not math.isfinite(t):

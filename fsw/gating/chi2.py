@@ -38,13 +38,16 @@ principal sub-matrix of W̄⁻¹ over the active filters as the memory term.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 
 from fsw.filters.record import BankRecord
 from fsw.gating.base import GatingNetwork, InvalidParameterError, WeightsUpdate, reenter_probabilities
 from fsw.interface.typed import spec
+
+if TYPE_CHECKING:  # the two-sided network derives from this one
+    from fsw.gating.chi2_two_sided import Chi2TwoSidedParams
 
 
 @dataclass(frozen=True)
@@ -180,9 +183,9 @@ class Chi2Network(GatingNetwork):
     """Seed 001 chi-square gating network (eqs. 5–8) with batch length M and memory W̄."""
 
     name = "chi2"
-    params_type = Chi2Params
+    params_type: ClassVar[type] = Chi2Params
 
-    def _check_params(self, params: Any) -> None:
+    def _check_params(self, params: Chi2Params | Chi2TwoSidedParams) -> None:
         W = self._memory_of(params)
         if W.shape != (len(self.filters), len(self.filters)):
             raise InvalidParameterError(
@@ -198,12 +201,12 @@ class Chi2Network(GatingNetwork):
     def _memory(self) -> np.ndarray:
         return self._memory_of(self.params)
 
-    def _memory_of(self, params: Any) -> np.ndarray:
+    def _memory_of(self, params: Chi2Params | Chi2TwoSidedParams) -> np.ndarray:
         if params.memory_matrix:
             return np.asarray(params.memory_matrix, dtype=float)
         return params.sigma_w**2 * np.eye(len(self.filters))
 
-    def _params_changed(self, old: Any, new: Any) -> None:
+    def _params_changed(self, old: Chi2Params | Chi2TwoSidedParams, new: Chi2Params | Chi2TwoSidedParams) -> None:
         self._Winv = _memory_inverse(self._memory())
 
     def _reset(self) -> None:

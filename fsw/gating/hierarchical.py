@@ -66,7 +66,7 @@ class HierarchicalNetwork(GatingNetwork):
     name = "hierarchical"
     params_type = HierarchicalParams
 
-    def _check_params(self, params: Any) -> None:
+    def _check_params(self, params: HierarchicalParams) -> None:
         groups = params.groups or {"bank": self.filters}
         seen: dict[str, str] = {}
         for gname, members in groups.items():
@@ -109,7 +109,7 @@ class HierarchicalNetwork(GatingNetwork):
         self._phi[0] = 1.0
         self._count = 0
 
-    def _params_changed(self, old: Any, new: Any) -> None:
+    def _params_changed(self, old: HierarchicalParams, new: HierarchicalParams) -> None:
         if (old.groups, old.features, old.kinds) != (new.groups, new.features, new.kinds):
             self._reset()
         else:

@@ -115,7 +115,7 @@ class MagillNetwork(GatingNetwork):
     name = "magill"
     params_type = MagillParams
 
-    def _check_params(self, params: Any) -> None:
+    def _check_params(self, params: MagillParams) -> None:
         if params.prior:
             prior = np.asarray(params.prior, dtype=float)
             if prior.shape != (len(self.filters),):

@@ -64,6 +64,7 @@ constant component is set so that, with the other features at zero, its share is
 from __future__ import annotations
 
 from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any, Callable, Literal
 
 import numpy as np
@@ -139,7 +140,7 @@ class MoeNetwork(GatingNetwork):
     name = "moe"
     params_type = MoeParams
 
-    def __init__(self, filter_names, params: Any = None, feature_map: FeatureMap | None = None, feature_dim: int | None = None):
+    def __init__(self, filter_names: Sequence[str], params: Any = None, feature_map: FeatureMap | None = None, feature_dim: int | None = None):
         if (feature_map is None) != (feature_dim is None):
             raise InvalidParameterError("feature_map and feature_dim go together")
         self._feature_map = feature_map
@@ -165,7 +166,7 @@ class MoeNetwork(GatingNetwork):
         self._g = log_normalize(np.zeros(len(self.filters)), self._active)
         self._count = 0
 
-    def _params_changed(self, old: Any, new: Any) -> None:
+    def _params_changed(self, old: MoeParams, new: MoeParams) -> None:
         if (old.features, old.kinds) != (new.features, new.kinds):
             self._reset()
 

@@ -99,11 +99,11 @@ class ResidualCorrelationNetwork(GatingNetwork):
     name = "residual-correlation"
     params_type = ResidualCorrelationParams
 
-    def _check_params(self, params: Any) -> None:
+    def _check_params(self, params: ResidualCorrelationParams) -> None:
         if not params.frequencies:
             raise InvalidParameterError("residual-correlation needs at least one frequency")
 
-    def _params_changed(self, old: Any, new: Any) -> None:
+    def _params_changed(self, old: ResidualCorrelationParams, new: ResidualCorrelationParams) -> None:
         structural = ("window", "frequencies", "time_base", "kind", "calibration", "calibration_count")
         if any(getattr(old, f) != getattr(new, f) for f in structural):
             self._clear_window()
@@ -180,7 +180,10 @@ class ResidualCorrelationNetwork(GatingNetwork):
         filter's own hypothesis."""
         if self.params.calibration == "learn":
             if self._model is None:
-                self._model = (self._mean, np.linalg.inv(self._cov), np.linalg.slogdet(self._cov)[1])
+                mean, cov = self._mean, self._cov
+                if mean is None or cov is None:
+                    raise GatingInputError("the learned nominal model is used before its calibration is complete")
+                self._model = (mean, np.linalg.inv(cov), np.linalg.slogdet(cov)[1])
             return self._model
         if self._model is not None and self._model[0].shape[1] == m * len(self.params.frequencies):
             return self._model

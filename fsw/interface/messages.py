@@ -6,9 +6,8 @@ Conventions used by every message:
 * ``timestamp`` — the same instant as Foxglove-style ``{sec, nsec}`` since the Unix epoch (UTC),
   so Foxglove's "header stamp" plot mode shows mission time.
 * Positions are Mars-centred ICRF/EME2000 in km, velocities km/s, unless a field says otherwise.
-* Measurement values: ``range`` [km], ``doppler`` [km/s, one-way range-rate equivalent;
-  1 mHz at X-band = ``fsw.astro.constants`` conversion], ``optical`` [pixel: sample, line],
-  ``generic-linear`` [units of the linear scenario].
+* Measurement kinds, with the unit and dimension of their values, are declared in
+  :mod:`fsw.interface.kinds`.
 
 Each class carries ``SCHEMA_VERSION``; :mod:`fsw.interface.codec` encodes/decodes them and
 generates their JSON Schemas from these declarations.
@@ -17,16 +16,23 @@ generates their JSON Schemas from these declarations.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
+from fsw.interface import kinds
 from fsw.interface.typed import spec
 
 SCHEMA_VERSION = 1
 
-MeasurementKind = Literal["range", "doppler", "optical", "generic-linear"]
-MEASUREMENT_KINDS: tuple[str, ...] = ("range", "doppler", "optical", "generic-linear")
+# The kinds are declared in fsw.interface.kinds; the Literal that makes decoding and the JSON
+# Schema enumerate them is built from that declaration. A type checker cannot follow a Literal
+# built at run time, so for it a kind is a plain string.
+if TYPE_CHECKING:
+    MeasurementKind = str
+else:
+    MeasurementKind = Literal[kinds.NAMES]
+MEASUREMENT_KINDS: tuple[str, ...] = kinds.NAMES
 #: Dimension n_j of each kind (None: any, given by the scenario).
-MEASUREMENT_DIMENSION: dict[str, int | None] = {"range": 1, "doppler": 1, "optical": 2, "generic-linear": None}
+MEASUREMENT_DIMENSION: dict[str, int | None] = {k.name: k.dimension for k in kinds.DECLARED}
 
 AnomalyClass = Literal["none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown"]
 ANOMALY_CLASSES: tuple[str, ...] = ("none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown")
@@ -78,13 +84,15 @@ class Measurement:
             raise ValueError("value must not be empty")
         if len(self.sigma) != len(self.value):
             raise ValueError(f"sigma has {len(self.sigma)} components, value has {len(self.value)}")
-        want = MEASUREMENT_DIMENSION.get(self.kind)
+        declared = kinds.BY_NAME.get(self.kind)
+        want = None if declared is None else declared.dimension
         if want is not None and len(self.value) != want:
             raise ValueError(f"a {self.kind} measurement has {want} component(s), got {len(self.value)}")
         if any(s <= 0.0 for s in self.sigma):
             raise ValueError("sigma components must be > 0")
-        if self.kind == "optical" and self.attitude_q is None:
-            raise ValueError("an optical measurement needs attitude_q")
+        for name in () if declared is None else declared.requires:
+            if getattr(self, name) is None:
+                raise ValueError(f"a measurement of kind {self.kind} needs {name}")
 
 
 @dataclass(frozen=True, slots=True)

@@ -199,7 +199,7 @@ def _decode_value(tp: Any, value: Any, path: str, meta: dict, dim: int = 0) -> A
                 raise DecodeError(path, "string keys", _type_name(k))
             out[k] = _decode_value(vtype, v, _join(path, k), meta, dim)
         return out
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return decode(tp, value, path)
     raise TypeError(f"unsupported field type {tp!r} at {path}")
 
@@ -292,7 +292,7 @@ def _schema_of(tp: Any, meta: dict, dim: int = 0) -> dict:
         return out
     if origin is dict:
         return {"type": "object", "additionalProperties": _schema_of(get_args(tp)[1], meta, dim)}
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return json_schema(tp, top=False)
     raise TypeError(f"unsupported field type {tp!r}")
 

@@ -23,6 +23,7 @@ for all epochs of a measurement in one batched product (:meth:`Environment.state
 from __future__ import annotations
 
 from collections import OrderedDict
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -50,7 +51,8 @@ class Environment:
         self._span = table_span_days * SECONDS_PER_DAY
         self._step = table_step_s
         self._table: EphemerisTable | None = None
-        self._hermite: np.ndarray | None = None
+        # replaced, with the table, before any lookup
+        self._hermite: np.ndarray = np.empty((0, 4, 15))
         self._stations: OrderedDict[tuple[str, float], tuple[np.ndarray, ...]] = OrderedDict()
 
     # -- planets --------------------------------------------------------------------------------
@@ -82,7 +84,7 @@ class Environment:
         p, v = self.states_many((t,))
         return p[0], v[0]
 
-    def states_many(self, t) -> tuple[np.ndarray, np.ndarray]:
+    def states_many(self, t: Iterable[float]) -> tuple[np.ndarray, np.ndarray]:
         """SSB positions and velocities (K, 5, 3) of TABLE_BODIES at K times (a short sequence):
         the table's cubic Hermite interpolant and its exact derivative, all epochs in one
         batched product (the per-epoch basis is a few scalar operations)."""

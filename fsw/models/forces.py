@@ -12,7 +12,7 @@ Mars-centred ICRF, km and s::
 Cruise body frame (solar arrays on the Sun): z towards the Sun, x the component of the Earth
 direction across the Sun line, y = z × x; d is the unit nominal net thrust direction in it and
 e₁, e₂ two unit vectors across d: θ₁, θ₂ are the small thrust-direction errors, a constant
-random bias of 3° per axis in seed 001 Table 1 ("attitude thruster orientation"). To first
+random bias of 3° per axis in Lubey & Ely 2022 Table 1 ("attitude thruster orientation"). To first
 order in θ (the dropped renormalisation changes the magnitude by θ²/2 ≈ 1e-3, far inside the
 3 % magnitude bias) the tilted direction is d + θ₁ e₁ + θ₂ e₂.
 
@@ -185,6 +185,8 @@ def acceleration(
     a += a_acs
     powers = None
     if params.poly_degree is not None:
+        if s_poly is None:
+            raise ValueError("a polynomial acceleration needs the normalised batch time s_poly")
         coeffs = q[:, N_Q_FIXED:].reshape(N, params.poly_degree + 1, 3)
         powers = poly_powers(s_poly, params.poly_degree)
         a += np.einsum("nk,nkj->nj", powers, coeffs)
@@ -195,6 +197,6 @@ def acceleration(
     dadq[:, :, 0] = (params.srp_coefficient / (d2[:, 1] * np.sqrt(d2[:, 1])))[:, None] * d[:, 1, :]
     dadq[:, :, 1:N_Q_FIXED] = acs_part
     if powers is not None:
-        for k in range(params.poly_degree + 1):
+        for k in range(powers.shape[1]):
             dadq[:, [0, 1, 2], N_Q_FIXED + 3 * k + np.arange(3)] = powers[:, k : k + 1]
     return a, G, dadq

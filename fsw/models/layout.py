@@ -10,7 +10,7 @@ velocity              3       Mars-centred ICRF velocity, km/s
 srp_bias, srp_stoch   1 + 1   SRP scale factor = 1 + bias + batched Gauss–Markov part, 1
 acs_bias, acs_stoch   1 + 1   ACS acceleration = nominal × (1 + bias + daily part), 1
 acs_tilt              2       ACS thrust-direction error, small rotation about two axes
-                              across the nominal direction (seed 001 Table 1), rad
+                              across the nominal direction (Lubey & Ely 2022 Table 1), rad
 accel                 3(d+1)  batched polynomial acceleration, coefficient k of axis j:
                               a_j(t) = Σ_k c_kj ((t − t_batch)/T_batch)^k, km/s²
 clock                 ≤ 3     onboard clock phase (s), fractional frequency (1), drift (1/s)

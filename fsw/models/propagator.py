@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from typing import Literal, overload
 
 import numpy as np
 
@@ -113,6 +114,16 @@ class Propagator:
             B[:, self._poly_rows, self._poly_cols] = powers[:, self._poly_k]
         return B
 
+    @overload
+    def propagate(
+        self, t0: float, t1: float, r: np.ndarray, v: np.ndarray, q: np.ndarray, with_stm: Literal[True] = ...
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+    @overload
+    def propagate(
+        self, t0: float, t1: float, r: np.ndarray, v: np.ndarray, q: np.ndarray, with_stm: bool
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]: ...
+
     def propagate(
         self, t0: float, t1: float, r: np.ndarray, v: np.ndarray, q: np.ndarray, with_stm: bool = True
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -167,9 +178,9 @@ class Propagator:
             ep0, epm, ep1 = self.epoch(t), self.epoch(t_mid), self.epoch(t_end)
             # the cruise frame turns by < 1e-5 rad per step: one ACS evaluation per step
             a_acs, acs_part = acs_terms(z[:, 0:3], epm[0], q, params)
-            kz = []
-            kY = []
-            forcing = []
+            kz: list[np.ndarray] = []
+            kY: list[np.ndarray] = []
+            forcing: list[np.ndarray] = []
             full = False
             # indirect third-body plus ACS acceleration: the same for every stage at one epoch
             extra0, extram, extra1 = ep0[2] + a_acs, epm[2] + a_acs, ep1[2] + a_acs

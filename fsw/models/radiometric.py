@@ -1,6 +1,6 @@
 """One-way uplink range and Doppler as measured on board, with exact partials.
 
-Geometry (seed 001 §4.1, one-way radiometric data with a DSAC-class onboard clock). A DSN
+Geometry (Lubey & Ely 2022 §4.1, one-way radiometric data with a DSAC-class onboard clock). A DSN
 station transmits at TDB t_tx; the spacecraft receives at true TDB t_rx and time-tags the
 reception with its own clock, t_tag = t_rx + δ, δ the clock phase error (clock minus TDB). The
 light-time equation is solved in the solar-system-barycentric (SSB) frame:
@@ -34,6 +34,7 @@ station delays.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,7 +53,7 @@ class UplinkGeometry:
     d_rho_d_delta: np.ndarray  # (K, N) km/s
 
 
-def uplinks(env: Environment, station: str, t_tags, r: np.ndarray, v: np.ndarray, delta: np.ndarray,
+def uplinks(env: Environment, station: str, t_tags: Iterable[float], r: np.ndarray, v: np.ndarray, delta: np.ndarray,
             iterations: int = 2) -> UplinkGeometry:
     """Solve the uplink light time at K time tags ``t_tags`` for spacecraft states r, v
     (K, N, 3) and clock phases δ (N,), all epochs in one batched iteration.

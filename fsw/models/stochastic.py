@@ -1,8 +1,8 @@
-"""Exponentially correlated random variables (ECRV, first-order Gauss–Markov), seed 000 eqs. 25–26.
+"""Exponentially correlated random variables (ECRV, first-order Gauss–Markov), Chaer et al. 1998 eqs. 25–26.
 
     x_{k+1} = exp(−Δt/τ) x_k + w_k,      E[w_k²] = σ² (1 − exp(−2Δt/τ))          (25), (26)
 
-σ is the steady-state deviation. Seed 001 Table 1 estimates such parameters "in discrete
+σ is the steady-state deviation. Lubey & Ely 2022 Table 1 estimates such parameters "in discrete
 batches": the value is constant over a batch of length T_b and steps by eq. 25 with Δt = T_b
 at each batch boundary. A process with no correlation between batches (the ACS daily
 variation, the batched polynomial acceleration) is the limit τ → 0: m = 0, q = σ².

@@ -195,8 +195,8 @@ def summary(path: str | os.PathLike) -> dict[str, int]:
     if is_complete(path):
         with open(path, "rb") as f:
             summ = SeekingReader(f).get_summary()
-        stats = summ.statistics
-        if stats is not None:
+        stats = None if summ is None else summ.statistics
+        if summ is not None and stats is not None:
             out: dict[str, int] = {}
             for cid, n in stats.channel_message_counts.items():
                 topic = summ.channels[cid].topic

@@ -142,7 +142,8 @@ def detector_rows(rows: list[dict]) -> list[dict]:
     evaluated (``{"error": ...}``) is left out. Rows already split are returned as they are."""
     out: list[dict] = []
     for r in rows:
-        det = r.get("detector") if isinstance(r.get("detector"), dict) else {}
+        found = r.get("detector")
+        det = found if isinstance(found, dict) else {}
         nets = list(det.get("monitors") or [])
         if not nets or "base_variant" in r:
             out.append(r)
@@ -164,7 +165,8 @@ def detector_rows(rows: list[dict]) -> list[dict]:
 
 
 def detector_of(row: dict) -> str:
-    det = row.get("detector") if isinstance(row.get("detector"), dict) else {}
+    found = row.get("detector")
+    det = found if isinstance(found, dict) else {}
     return str(row.get("detector_network") or det.get("network") or (row.get("anomaly") or {}).get("network") or "")
 
 

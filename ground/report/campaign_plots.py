@@ -25,12 +25,15 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ground.report import campaign_data as C
 from ground.report import figure as F
+
+if TYPE_CHECKING:  # matplotlib is imported only when a figure is drawn
+    from matplotlib.artist import Artist
 
 _SIZE_ALPHA = {None: 1.0, "small": 0.35, "medium": 0.65, "large": 1.0}
 
@@ -80,7 +83,7 @@ def plot_mean_weights(mw: C.MeanWeights, path: Path | None = None, *, after_onse
     arc = "after the fault onset" if after_onset else "over the full arc"
     var = f", variant '{mw.variant}'" if mw.variant and show_variant else ""
     ax.set_title(f"Mean '{mw.network}' weights per filter {arc}{var}")
-    handles = [Patch(facecolor=styles[f]["color"], edgecolor="black", linewidth=0.4,
+    handles: list[Artist] = [Patch(facecolor=styles[f]["color"], edgecolor="black", linewidth=0.4,
                      hatch="//" if styles[f]["linestyle"] == "--" else None, label=f) for f in mw.filters]
     handles += [Patch(facecolor="dimgray", alpha=_SIZE_ALPHA[s], label=f"{s} fault") for s in C.SIZES if s in sizes_seen]
     handles.append(Line2D([], [], color="gray", linestyle=":", label=f"equal weight 1/{nf}"))
@@ -295,7 +298,8 @@ def plot_weight_history(wh: C.WeightHistory, path: Path | None = None, *, show_v
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    handles = [Line2D([], [], color=styles[f]["color"], linestyle=styles[f]["linestyle"], label=f) for f in wh.filters]
+    handles: list[Artist] = [Line2D([], [], color=styles[f]["color"], linestyle=styles[f]["linestyle"], label=f)
+                             for f in wh.filters]
     handles.append(Patch(facecolor="gray", alpha=0.25, label="10–90 % over seeds"))
     if np.isfinite(wh.onset_day).any():
         handles.append(Line2D([], [], color="tab:red", linestyle="--", label="true fault onset"))

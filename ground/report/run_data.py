@@ -21,7 +21,7 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal, NamedTuple
+from typing import Any, Literal, NamedTuple, overload
 
 import numpy as np
 
@@ -114,6 +114,12 @@ class RunData:
     status: dict[str, m.RunStatus] = field(default_factory=dict)  # source -> last RunStatus
     hierarchy: dict[str, HierarchicalHistory] = field(default_factory=dict)  # networks that publish bank weights
     skipped: int = 0
+
+    @overload
+    def day(self, t_s: float) -> float: ...
+
+    @overload
+    def day(self, t_s: np.ndarray) -> np.ndarray: ...
 
     def day(self, t_s: np.ndarray | float) -> np.ndarray | float:
         """Days since the start of the run."""
@@ -251,6 +257,7 @@ def hierarchical_history(messages_or_weights: Iterable[Any], groups: Mapping[str
             raise ValueError(f"filters {unknown} of the banks never appear in the weights")
     top = np.array([[w.groups.get(b, np.nan) for b in banks] for w in msgs], dtype=float).reshape(len(msgs), len(banks))
     col = {f: i for i, f in enumerate(filters)}
+    source: Literal["given", "inferred", "unknown"]
     if given:
         sums = np.stack([np.nansum(W[:, [col[f] for f in given[b]]], axis=1) for b in banks], axis=1)
         err = np.nanmax(np.abs(sums - top), initial=0.0)

@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import OdeSolution, solve_ivp
 
 from fsw.astro.ephemeris import EphemerisTable, default_ephemeris
 from sim.dynamics.config import ForceModelConfig
@@ -33,7 +33,7 @@ def make_table(t_a: float, t_b: float, step_s: float = 1800.0) -> EphemerisTable
 class _Segment:
     t_lo: float
     t_hi: float
-    sol: object  # scipy OdeSolution
+    sol: OdeSolution
     nfev: int
     ts_sorted: list  # the solver's step times, ascending (for the scalar fast path)
 

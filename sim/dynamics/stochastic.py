@@ -102,9 +102,9 @@ class StochasticRealisation:
 
         acs_edges = cls._edges(t0, t1, forces.acs_batch_days * SECONDS_PER_DAY)
         na = acs_edges.size - 1
-        dirs = np.array(forces.acs_directions_body, dtype=float)
+        dirs: np.ndarray = np.array(forces.acs_directions_body, dtype=float)
         dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-        nt = dirs.shape[0]
+        nt = int(dirs.shape[0])
         beta = rng.standard_normal(nt)
         delta = rng.standard_normal((nt, na))
         nominal = forces.acs_scale * forces.acs_nominal_km_s2
@@ -112,7 +112,7 @@ class StochasticRealisation:
         sig = math.radians(forces.acs_direction_sigma_deg)
         tilt = rng.standard_normal((nt, 2)) * sig
         for i in range(nt):
-            e1 = np.cross(dirs[i], [1.0, 0.0, 0.0] if abs(dirs[i][0]) < 0.9 else [0.0, 1.0, 0.0])
+            e1 = np.cross(dirs[i], [1.0, 0.0, 0.0] if abs(dirs[i, 0]) < 0.9 else [0.0, 1.0, 0.0])
             e1 /= np.linalg.norm(e1)
             e2 = np.cross(dirs[i], e1)
             d = dirs[i] + tilt[i, 0] * e1 + tilt[i, 1] * e2
@@ -129,8 +129,8 @@ class StochasticRealisation:
                 raise DynamicsError("a numpy Generator for the NGA is needed when nga_sigma_km_s2 > 0")
             edges = cls._edges(t0, t1, forces.nga_batch_s)
             normals = nga_rng.standard_normal((edges.size - 1, 3))
-            m = math.exp(-forces.nga_batch_s / (forces.nga_tau_days * SECONDS_PER_DAY))
-            out = dataclasses.replace(out, nga_edges=edges, nga_normals=normals, nga_factor=m)
+            factor = math.exp(-forces.nga_batch_s / (forces.nga_tau_days * SECONDS_PER_DAY))
+            out = dataclasses.replace(out, nga_edges=edges, nga_normals=normals, nga_factor=factor)
             out = out.with_nga_sigma(np.full(edges.size - 1, forces.nga_sigma_km_s2))
         return out
 
@@ -176,7 +176,7 @@ class StochasticRealisation:
 
     def nga_at(self, t) -> np.ndarray:
         """Realised NGA [km/s^2], ICRF: (3,) for scalar t, (N, 3) for arrays (zeros without NGA)."""
-        if self.nga_edges is None:
+        if self.nga_edges is None or self.nga_accel is None:  # edges and accelerations are set together
             t = np.asarray(t, dtype=float)
             return np.zeros(t.shape + (3,))
         return self.nga_accel[self._batch(self.nga_edges, t)]

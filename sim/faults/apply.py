@@ -10,7 +10,9 @@ faults change the truth force realisation from their onset (:func:`splice_acs`).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal, cast
 
 import numpy as np
 
@@ -18,6 +20,7 @@ from fsw.astro.constants import MHZ_TO_KM_S, SECONDS_PER_DAY
 from fsw.astro.time import tdb_to_unix
 from fsw.interface.messages import FaultEvent, Stamp
 from sim.clock import ClockStep
+from sim.dynamics.stochastic import StochasticRealisation
 from sim.faults.config import FaultConfig, fault_ids
 
 
@@ -59,7 +62,7 @@ def range_bias_km(windows: tuple[FaultWindow, ...], t) -> np.ndarray:
     out = np.zeros(t.shape)
     for w in windows:
         if w.config.type == "range-bias":
-            out += np.where(w.active(t), w.config.range_m * 1e-3, 0.0)
+            out += np.where(w.active(t), cast(float, w.config.range_m) * 1e-3, 0.0)  # set for this type
     return out
 
 
@@ -73,7 +76,7 @@ def doppler_bias_km_s(windows: tuple[FaultWindow, ...], t) -> np.ndarray:
     out = np.zeros(t.shape)
     for w in windows:
         if w.config.type == "doppler-bias":
-            out += np.where(w.active(t), -w.config.doppler_mhz * MHZ_TO_KM_S, 0.0)
+            out += np.where(w.active(t), -cast(float, w.config.doppler_mhz) * MHZ_TO_KM_S, 0.0)  # set for this type
     return out
 
 
@@ -119,7 +122,8 @@ def faulted_forces(forces, window: FaultWindow):
     raise ValueError(f"{c.type} is not a dynamics fault")
 
 
-def splice_acs(nominal, faulted_by_window: list[tuple[FaultWindow, object]]):
+def splice_acs(nominal: StochasticRealisation,
+               faulted_by_window: Sequence[tuple[FaultWindow, StochasticRealisation]]) -> StochasticRealisation:
     """ACS realisation that is ``nominal`` outside the fault windows and the faulted one inside.
 
     ``nominal`` and each faulted realisation must come from the same random draws (same
@@ -163,7 +167,8 @@ def fault_events(windows: tuple[FaultWindow, ...], t_end: float) -> list[FaultEv
     """Start (and end, if inside the run) events of every fault, in time order."""
     events = []
     for w in windows:
-        for t, kind in ((w.t_on, "start"), (w.t_off, "end")):
+        edges: tuple[tuple[float | None, Literal["start", "end"]], ...] = ((w.t_on, "start"), (w.t_off, "end"))
+        for t, kind in edges:
             if t is None or t > t_end:
                 continue
             events.append(FaultEvent(

@@ -39,6 +39,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Literal
 
+from fsw.interface.messages import AnomalyClass
 from fsw.interface.typed import spec
 
 FaultType = Literal[
@@ -49,7 +50,7 @@ FAULT_TYPES: tuple[str, ...] = (
 )
 
 #: The anomaly class a perfect diagnosis would give for each fault type (ICD ``AnomalyClass``).
-FAULT_CLASS: dict[str, str] = {
+FAULT_CLASS: dict[str, AnomalyClass] = {
     "optical-bias": "optical-measurement",
     "range-bias": "radiometric-measurement",
     "doppler-bias": "radiometric-measurement",
@@ -129,7 +130,7 @@ class FaultConfig:
                 raise ValueError(f"{self.type}: {n} must be >= 0, got {value}")
 
     @property
-    def fault_class(self) -> str:
+    def fault_class(self) -> AnomalyClass:
         """The ICD anomaly class of this fault."""
         return FAULT_CLASS[self.type]
 

@@ -21,12 +21,13 @@ from __future__ import annotations
 import json as _json
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import IO, Any
 
 import numpy as np
 
 from fsw.filters.bank import FilterBank
+from fsw.filters.kinds import FILTER_KINDS
 from fsw.filters.config import BankConfig
 from fsw.filters.linear import LinearFilterBank
 from fsw.filters.presets import preset
@@ -61,7 +62,7 @@ def bench_linear(N: int = 6, n: int = 15, m: int = 2, number: int = 400, repeat:
         kf.x, kf.P = x0.copy()[:, None], P0.copy()
         kfs.append(kf)
     zs = rng.standard_normal((number, m))
-    it = iter(())
+    it: Iterator[np.ndarray] = iter(())
 
     def ours() -> None:
         nonlocal it
@@ -104,8 +105,9 @@ def _stream(count: int, env: Environment) -> tuple[float, np.ndarray, np.ndarray
     except ImportError:
         from tools.bench.synthetic import make_run
 
-        run = make_run(span_days=4.0, max_measurements=count, env=env)
-        return run.t0, run.position_km, run.velocity_km_s, run.measurements, "synthetic InSight-like (onboard models)"
+        synthetic = make_run(span_days=4.0, max_measurements=count, env=env)
+        return (synthetic.t0, synthetic.position_km, synthetic.velocity_km_s, synthetic.measurements,
+                "synthetic InSight-like (onboard models)")
     cfg = SimConfig()
     cfg = dataclasses.replace(cfg, trajectory=dataclasses.replace(cfg.trajectory, span_days=4.0))
     run = generate(cfg, seed=1)
@@ -139,7 +141,7 @@ def bench_ekf(config: BankConfig, name: str, stream: tuple, env: Environment, re
         "filters": len(config.filters),
         "states": len(FilterBank(config, t0, r0, v0, env=env).state_names),
         "measurements": k,
-        "kinds": {kind: sum(1 for m in meas if m.kind == kind) for kind in ("range", "doppler", "optical")},
+        "kinds": {kind: sum(1 for m in meas if m.kind == kind) for kind in FILTER_KINDS},
         "reference_impl": "the same filters as separate one-filter banks",
         "stream": label,
     }

@@ -114,6 +114,8 @@ def fly(seed: int, scenario: str = "insight-approach", fault: str = "none", chec
     cfg, seed = resolve(with_fault(load_scenario(scenario), fault), seed)
     run = generate(cfg.sim, seed=seed)
     init = cfg.fsw.initial_state
+    if init is None:
+        raise ValueError(f"scenario {scenario!r} resolved without an a-priori initial state")
     bank = FilterBank(cfg.fsw.bank, init.t_s, init.position_km, init.velocity_km_s)
     N, M = bank.size, len(run.measurements)
     epochs: list[float] = []

@@ -23,6 +23,8 @@ from fsw.astro.frames import matrix_to_quat
 from fsw.astro.time import tdb_to_unix, utc_iso_to_tdb
 from fsw.filters.config import BankConfig, FilterConfig
 from fsw.filters.ekf import EKFStack
+from fsw.filters.optical_kind import predict_optical
+from fsw.filters.radiometric_kinds import predict_doppler, predict_range
 from fsw.interface.messages import Measurement, Stamp
 from fsw.models.environment import Environment
 
@@ -104,13 +106,13 @@ def make_run(span_days: float = 45.0, end_offset_h: float = 6.0, seed: int = 1, 
         x = truth.x
         states[t] = x[0, :6].copy()
         if kind == "range":
-            h, _ = truth.predict_range(source, t, x)
-            sigma = (1e-3,)
-            value = (float(h[0, 0] + rng.normal(0.0, sigma[0])),)
-            q = None
+            h, _ = predict_range(truth, source, t, x)
+            sigma: tuple[float, ...] = (1e-3,)
+            value: tuple[float, ...] = (float(h[0, 0] + rng.normal(0.0, sigma[0])),)
+            q: tuple[float, ...] | None = None
             count = None
         elif kind == "doppler":
-            h, _ = truth.predict_doppler(source, t, 60.0, x)
+            h, _ = predict_doppler(truth, source, t, 60.0, x)
             sigma = (1e-7,)
             value = (float(h[0, 0] + rng.normal(0.0, sigma[0])),)
             q = None
@@ -119,7 +121,7 @@ def make_run(span_days: float = 45.0, end_offset_h: float = 6.0, seed: int = 1, 
             r_t, _ = env.target_state(source, t)
             C = _camera_to_icrf(r_t - x[0, 0:3] + rng.normal(0.0, 1e-3, 3) * np.linalg.norm(r_t - x[0, 0:3]))
             q = tuple(float(c) for c in matrix_to_quat(C))
-            h, _ = truth.predict_optical(source, t, q, x)
+            h, _ = predict_optical(truth, source, t, q, x)
             sigma = (0.3, 0.3)
             value = tuple(float(v) for v in h[0] + rng.normal(0.0, 0.3, 2))
             count = None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 import sys
 import time
 from pathlib import Path
@@ -40,7 +41,7 @@ def add_arguments(p) -> None:
 
 def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, cpu_scale: float | None) -> ScenarioConfig:
     b = cfg.fsw.budget
-    changes = {}
+    changes: dict[str, Any] = {}
     if mode is not None:
         changes["mode"] = mode
     if fraction is not None:
@@ -81,7 +82,10 @@ def run(args) -> int:
     wanted = [t for t in mcap_counts(out / "run.mcap") if t != "/sim/measurements"]
     messages = [(rec.topic, rec.message) for rec in read_messages(out / "run.mcap", topics=wanted)
                 if rec.message is not None]
-    t_start = cfg.fsw.initial_state.t_s
+    init = cfg.fsw.initial_state
+    if init is None:
+        raise UsageError("the scenario resolved without an a-priori initial state")
+    t_start = init.t_s
     summary = summarize(messages, scenario=cfg.name, seed=seed, fault=args.fault, t0=t_start, wall_time_s=wall)
     summary["run_id"] = run_id
     summary["files"] = {"mcap": str(out / "run.mcap"), "config": str(out / "config.yaml")}

@@ -60,8 +60,8 @@ def run(args) -> int:
     cfg, seed = resolve(scenario_from_args(args), args.seed)
     t0 = time.perf_counter()
     run_ = generate(cfg.sim, seed=seed)
-    counts = ", ".join(f"{n} {k}" for k, n in sorted(run_.counts().items()))
-    print(f"sim: {cfg.name} seed {seed}: {len(run_.measurements)} measurements ({counts}), "
+    per_kind = ", ".join(f"{n} {k}" for k, n in sorted(run_.counts().items()))
+    print(f"sim: {cfg.name} seed {seed}: {len(run_.measurements)} measurements ({per_kind}), "
           f"{len(run_.truth)} truth, {len(run_.fault_events)} fault events in {time.perf_counter() - t0:.1f} s",
           file=sys.stderr)
     for path in args.out:

@@ -29,11 +29,11 @@ def _fmt(row: Mapping[str, float]) -> str:
 
 
 def _top(row: Mapping[str, float]) -> str:
-    return max(row, key=row.get)
+    return max(row, key=lambda k: row[k])
 
 
 def _bottom(row: Mapping[str, float]) -> str:
-    return min(row, key=row.get)
+    return min(row, key=lambda k: row[k])
 
 
 def table3_claims(chi2: Table, magill: Table | None = None) -> list[Claim]:
@@ -68,7 +68,7 @@ def table3_claims(chi2: Table, magill: Table | None = None) -> list[Claim]:
 
 def table4_claim(case: str, row: Mapping[str, float]) -> Claim:
     """Seed 001 Table 4: optical / optical-Q highest, the low-Q radio and fused filters lowest."""
-    ranked = sorted(row, key=row.get)
+    ranked = sorted(row, key=row.__getitem__)
     ok = _top(row) in ("optical", "optical-Q") and set(ranked[:2]) == {"radio", "fused"}
     return Claim(f"table4-{case}", f"{case}: optical or optical-Q highest, low-Q radio and fused lowest", ok,
                  _fmt(row))

@@ -188,7 +188,7 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
         s.claims.append(table4_claim(label, row.mean))
         mg = weight_table(rows, "magill", scenario=scen).get(case)
         if mg is not None:
-            top = max(mg.mean, key=mg.mean.get)
+            top = max(mg.mean, key=mg.mean.__getitem__)
             s.claims.append(Claim(f"table4-magill-{label}", f"{label}: Magill favours the high-uncertainty fused "
                                   "filter (fused-Q)", top == "fused-Q", f"highest: {top} ({mg.mean[top]:.3f})"))
         runs = [r for r in rows if r["cell"]["scenario"] == scen and r["cell"]["fault"] == case]
@@ -485,8 +485,8 @@ def overinflated_section(camp: Path, doc_dir: Path) -> Section:
         c2 = weight_table(rows, "chi2")
         ts = weight_table(rows, "chi2-two-sided")
         case = next(iter(c2))
-        top_c2 = max(c2[case].mean, key=c2[case].mean.get)
-        low_ts = min(ts[case].mean, key=ts[case].mean.get)
+        top_c2 = max(c2[case].mean, key=c2[case].mean.__getitem__)
+        low_ts = min(ts[case].mean, key=ts[case].mean.__getitem__)
         s.claims = [
             Claim("inflated-chi2", "seed 001's weakness: chi2 rewards the over-inflated filter", top_c2 == f,
                   f"chi2 highest weight: {top_c2} ({c2[case].mean[top_c2]:.3f})"),

@@ -58,7 +58,10 @@ def analyse(result: RunResult) -> CruiseResults:
     msgs = result.topic(f"{topics.FSW_WEIGHTS}/{NETWORK}")
     if not msgs:
         raise ValueError("the run published no hierarchical weights")
-    t0 = cfg.fsw.initial_state.t_s
+    init = cfg.fsw.initial_state
+    if init is None:
+        raise ValueError("the scenario resolved without an a-priori initial state")
+    t0 = init.t_s
     h = hierarchical_history(msgs, _groups(cfg), network=NETWORK)
     groups = {b: list(h.members[b]) for b in h.banks}
     banks = list(h.banks)
@@ -117,7 +120,7 @@ def plot_cruise(res: CruiseResults, path: str | Path) -> Path:
 
 
 def _pick(d: dict[str, float]) -> str:
-    return max(d, key=d.get)
+    return max(d, key=lambda k: d[k])
 
 
 def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] | None = None,
@@ -164,7 +167,7 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
                          if x.overtake_day is not None else "no"),
                         f"{_pick(x.in_bank_before[x.banks[1]])} / {_pick(x.in_bank_after[x.banks[1]])}",
                         _pick(x.in_bank_after[x.banks[2]]),
-                        ", ".join(sorted(x.in_bank_after[x.banks[3]], key=x.in_bank_after[x.banks[3]].get,
+                        ", ".join(sorted(x.in_bank_after[x.banks[3]], key=x.in_bank_after[x.banks[3]].__getitem__,
                                          reverse=True)[:2])]
                        for x in runs])
     n = len(runs)
@@ -174,7 +177,7 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
     k22 = sum(_pick(x.in_bank_before[x.banks[1]]) == x.bank_filters[x.banks[1]][1] for x in runs)
     k12 = sum(_pick(x.in_bank_after[x.banks[1]]) == x.bank_filters[x.banks[1]][0] for x in runs)
     k23 = sum(_pick(x.in_bank_after[x.banks[2]]) == x.bank_filters[x.banks[2]][1] for x in runs)
-    k4 = sum(set(sorted(x.in_bank_after[x.banks[3]], key=x.in_bank_after[x.banks[3]].get)[1:])
+    k4 = sum(set(sorted(x.in_bank_after[x.banks[3]], key=x.in_bank_after[x.banks[3]].__getitem__)[1:])
              == set(x.bank_filters[x.banks[3]][:2]) for x in runs)
     delays = [x.overtake_day - x.change_day for x in runs if x.overtake_day is not None]
     s.claims = [

@@ -45,14 +45,20 @@ def bank_records(z: np.ndarray, alpha: np.ndarray) -> list[BankRecord]:
     for k, zk in enumerate(np.asarray(z, dtype=float)):
         rec = bank.update(zk, t=float(k), seq=k) if k == 0 else bank.step(zk, t=float(k), seq=k)
         out.append(BankRecord(rec.t, rec.seq, rec.kind, rec.filters, rec.residual.copy(), rec.S.copy(),
-                              rec.chi2.copy(), rec.processed.copy(), rec.active.copy()))
+                              rec.chi2.copy(), rec.processed.copy(), rec.active_mask().copy()))
     return out
 
 
 def weight_history(records: list[BankRecord], network: str, params: dict | None = None) -> np.ndarray:
     """(K, N) weights after each measurement."""
     net = make_network(network, records[0].filters, params or {})
-    return np.array([net.update(r).weights for r in records])
+    rows = []
+    for r in records:
+        upd = net.update(r)
+        if upd is None:  # these networks update on every measurement
+            raise ValueError(f"{network} gave no weights after measurement {r.seq}")
+        rows.append(upd.weights)
+    return np.array(rows)
 
 
 @dataclass

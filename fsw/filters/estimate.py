@@ -1,0 +1,41 @@
+"""A filter's (or a combination's) estimate: state, covariance and the names of the states."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class StateEstimate:
+    """An estimate in its filter's own state layout."""
+
+    name: str
+    t: float
+    state_names: tuple[str, ...]
+    x: np.ndarray
+    P: np.ndarray
+
+    @property
+    def sigma(self) -> np.ndarray:
+        return np.sqrt(np.clip(np.diag(self.P), 0.0, None))
+
+
+@dataclass(frozen=True)
+class FilterEstimate(StateEstimate):
+    """A navigation estimate: the state starts with Mars-centred position [km] and velocity [km/s]."""
+
+    @property
+    def position_km(self) -> np.ndarray:
+        return self.x[0:3]
+
+    @property
+    def velocity_km_s(self) -> np.ndarray:
+        return self.x[3:6]
+
+    @property
+    def position_sigma_km(self) -> float:
+        """Root of the trace of the position covariance (RTPC, Lubey & Ely 2022 §4.2)."""
+        return float(math.sqrt(max(np.trace(self.P[0:3, 0:3]), 0.0)))

@@ -1,0 +1,139 @@
+"""The onboard models of one-way range and Doppler: prediction and partials over a bank's
+stacked states (geometry and light time: :mod:`fsw.models.radiometric`).
+
+A Doppler count also carries the onboard clock's short-term instability over the count, which
+the reported (thermal) sigma does not include and the clock states cannot represent
+(:func:`doppler_clock_variance`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from fsw.astro.constants import C_KM_S
+from fsw.astro.stations import StationError
+from fsw.fdir.families import RADIO
+from fsw.filters.errors import MeasurementRejected
+from fsw.interface import kinds
+from fsw.interface.messages import Measurement
+from fsw.models.environment import Environment
+from fsw.models.radiometric import uplink, uplinks
+
+if TYPE_CHECKING:
+    from fsw.filters.ekf import EKFStack
+
+
+def predict_range(stack: EKFStack, station: str, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """h (N, 1) and H (N, 1, n) of one-way range ρ = ρ_g + c δ (+ range bias) for states x (N, n)."""
+    L = stack.layout
+    clock = stack.clock_columns
+    delta = stack.clock_state(x, 0)
+    g = uplink(stack.env, station, t, x[:, 0:3], x[:, 3:6], delta)
+    N = x.shape[0]
+    H = np.zeros((N, 1, L.n))
+    H[:, 0, 0:3] = g.d_rho_d_r
+    H[:, 0, 3:6] = g.d_rho_d_v
+    h = g.rho + C_KM_S * delta
+    if clock is not None:
+        H[:, 0, clock[0]] = C_KM_S + g.d_rho_d_delta
+    if L.has("range_bias"):
+        h = h + x[:, L.slices["range_bias"].start]
+        H[:, 0, L.slices["range_bias"].start] = 1.0
+    return h[:, None], H
+
+
+def predict_doppler(stack: EKFStack, station: str, t: float, count_s: float,
+                    x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """h (N, 1) and H (N, 1, n) of one-way Doppler Δρ_g/T + c (f − a T/2) over the count
+    interval T ending at t."""
+    L = stack.layout
+    clock = stack.clock_columns
+    N = x.shape[0]
+    delta = stack.clock_state(x, 0)
+    freq = stack.clock_state(x, 1)
+    drift = stack.clock_state(x, 2)
+    r_s, v_s, Yb = stack.count_start(t, count_s, x)
+    # both ends of the count in one light-time solution: [end, start]
+    g = uplinks(stack.env, station, (t, t - count_s), np.stack([x[:, 0:3], r_s]), np.stack([x[:, 3:6], v_s]), delta)
+    h = (g.rho[0] - g.rho[1]) / count_s + C_KM_S * (freq - 0.5 * drift * count_s)
+    # start geometry through the backward sensitivity Yb = ∂[r, v]_start / ∂[r, v, q]_end
+    g_start = np.concatenate([g.d_rho_d_r[1], g.d_rho_d_v[1]], axis=1)  # (N, 6)
+    d_start = np.matmul(g_start[:, None, :], Yb)[:, 0, :]  # (N, 6 + n_q)
+    d_end = np.zeros((N, 6 + L.n_q))
+    d_end[:, 0:3] = g.d_rho_d_r[0]
+    d_end[:, 3:6] = g.d_rho_d_v[0]
+    H = ((d_end - d_start) / count_s) @ stack.z_to_state
+    if clock is not None:
+        c = clock[0]
+        k = clock[1] - c
+        H[:, c] = (g.d_rho_d_delta[0] - g.d_rho_d_delta[1]) / count_s
+        if k > 1:
+            H[:, c + 1] = C_KM_S
+        if k > 2:
+            H[:, c + 2] = -0.5 * C_KM_S * count_s
+    return h[:, None], H[:, None, :]
+
+
+def doppler_clock_variance(stack: EKFStack, count_s: float) -> np.ndarray:
+    """(N,) variance [km²/s²] the clock adds to a one-way Doppler beyond its model c (f − a T/2).
+
+    The count measures the phase change over T, (b_end − b_start)/T; white FM (q1) moves the
+    phase by a random walk of variance q1 T inside the count and random-walk FM (q2) makes
+    the mean frequency over the count differ from the modelled one by variance q2 T/3.
+    Neither is in the frequency state, so each count carries c² (q1/T + q2 T/3) of its own
+    (the Allan variance at τ = T of those two noises; 0.018 mm/s for a DSAC-class clock at
+    60 s). Filters without clock states model no clock noise here."""
+    q = stack.clock_q
+    return C_KM_S**2 * (q[:, 0] / count_s + q[:, 1] * count_s / 3.0)
+
+
+def _check_station(meas: Measurement, env: Environment) -> None:
+    try:
+        env.check_station(meas.source)
+    except StationError as exc:
+        raise MeasurementRejected("unknown_source", str(exc)) from None
+
+
+def count_time(meas: Measurement) -> float:
+    """The Doppler count interval T [s]; refuses a missing, non-finite or non-positive one."""
+    T = meas.count_time_s
+    # the message may not have been through the ICD's own checks: test the value, not its type hint
+    if T is None or isinstance(T, bool) or not isinstance(T, (int, float)) or not math.isfinite(T) or T <= 0.0:
+        raise MeasurementRejected("bad_count_time", f"Doppler needs a positive finite count_time_s, got {T!r}")
+    return float(T)
+
+
+class RangeModel:
+    """One-way uplink pseudo-range."""
+
+    declaration = kinds.RANGE
+    family = RADIO
+
+    def screen(self, meas: Measurement, env: Environment) -> None:
+        _check_station(meas, env)
+
+    def predict(self, stack: EKFStack, meas: Measurement, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return predict_range(stack, meas.source, t, x)
+
+    def added_variance(self, stack: EKFStack, meas: Measurement) -> np.ndarray | None:
+        return None
+
+
+class DopplerModel:
+    """One-way uplink Doppler over the count interval ending at the time tag."""
+
+    declaration = kinds.DOPPLER
+    family = RADIO
+
+    def screen(self, meas: Measurement, env: Environment) -> None:
+        _check_station(meas, env)
+        count_time(meas)
+
+    def predict(self, stack: EKFStack, meas: Measurement, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return predict_doppler(stack, meas.source, t, count_time(meas), x)
+
+    def added_variance(self, stack: EKFStack, meas: Measurement) -> np.ndarray | None:
+        return doppler_clock_variance(stack, count_time(meas))

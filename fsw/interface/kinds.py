@@ -1,0 +1,55 @@
+"""The measurement kinds of the ICD, declared once.
+
+Every list of kinds in navbank — the values ``Measurement.kind`` may take, their dimensions,
+the kinds the onboard filters have models for — is derived from :data:`DECLARED` below. Adding a
+kind means declaring it here and registering its onboard model
+(:mod:`fsw.filters.kinds`); nothing else enumerates kinds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class KindDeclaration:
+    """One measurement kind as the ICD defines it.
+
+    ``dimension`` is the number of components of ``Measurement.value`` (None: any, fixed by the
+    scenario); ``requires`` names optional ``Measurement`` fields a measurement of this kind
+    must carry.
+    """
+
+    name: str
+    dimension: int | None
+    unit: str
+    doc: str
+    requires: tuple[str, ...] = ()
+
+
+RANGE = KindDeclaration(
+    "range", 1, "km", "one-way uplink pseudo-range from a DSN station, received on board")
+DOPPLER = KindDeclaration(
+    "doppler", 1, "km/s",
+    "one-way uplink Doppler as a range-rate over the count interval count_time_s ending at t_s "
+    "(1 mHz at X-band = fsw.astro.constants conversion)")
+OPTICAL = KindDeclaration(
+    "optical", 2, "px", "[sample, line] of a target centre in the navigation camera image",
+    requires=("attitude_q",))
+GENERIC_LINEAR = KindDeclaration(
+    "generic-linear", None, "units of the linear scenario", "z = H x + v of a linear scenario")
+
+#: Every kind, in ICD order.
+DECLARED: tuple[KindDeclaration, ...] = (RANGE, DOPPLER, OPTICAL, GENERIC_LINEAR)
+
+BY_NAME: dict[str, KindDeclaration] = {k.name: k for k in DECLARED}
+NAMES: tuple[str, ...] = tuple(BY_NAME)
+
+
+def declaration(name: str) -> KindDeclaration:
+    """The declaration of kind ``name`` (KeyError naming the known kinds if there is none)."""
+    try:
+        return BY_NAME[name]
+    except KeyError:
+        raise KeyError(f"unknown measurement kind {name!r}; declared: {', '.join(NAMES)}") from None
+
