@@ -19,11 +19,11 @@ from typing import Callable, Sequence
 import fsw.transport as tp
 from fsw.astro.time import tdb_to_unix
 from fsw.interface import topics
-from fsw.interface.messages import RunStatus, Stamp
+from fsw.interface.messages import RunState, RunStatus, Stamp
 from sim.stream import SimRun
 
 
-def _status(run: SimRun, run_id: str, state: str, counts: dict[str, int], t: float, message: str = "") -> RunStatus:
+def _status(run: SimRun, run_id: str, state: RunState, counts: dict[str, int], t: float, message: str = "") -> RunStatus:
     return RunStatus(t_s=t, timestamp=Stamp.from_unix(float(tdb_to_unix(t))), run_id=run_id, source="sim",
                      state=state, counts=counts, message=message)
 

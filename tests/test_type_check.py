@@ -5,9 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import pytest
-
-api = pytest.importorskip("mypy.api")
+from mypy import api
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -31,7 +31,7 @@ class RunResult:
         return [msg for t, msg in self.messages if t == name]
 
 
-def sim_status(run: SimRun, run_id: str, state: str) -> m.RunStatus:
+def sim_status(run: SimRun, run_id: str, state: m.RunState) -> m.RunStatus:
     t = run.t_end if state == "end-of-run" else run.t_start
     return m.RunStatus(t_s=t, timestamp=stamp(t), run_id=run_id, source="sim", state=state,
                        counts={"measurements": len(run.measurements), "truth": len(run.truth),
@@ -54,7 +54,7 @@ def run_in_process(cfg: ScenarioConfig, seed: int | None = None, *, fault_label:
     done = 0
     for topic, msg in run.iter_messages():
         out.append((topic, msg))
-        if topic == topics.SIM_MEASUREMENTS:
+        if isinstance(msg, m.Measurement):
             core.ingest(msg)
             done += 1
             if progress is not None and done % 500 == 0:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Callable, Literal, Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 
@@ -22,12 +22,12 @@ from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.filters.bank import FilterEstimate
 from fsw.gating.base import WeightsUpdate
 from fsw.interface import messages as m
+from fsw.interface.messages import RunState
 
 #: Every message the FSW core emits.
 FswMessage = m.FilterWeights | m.AnomalyReport | m.Estimate | m.BudgetReport | m.RunStatus
 #: Where the core's messages go: ``emit(topic, message)`` (a publisher, a list, a recorder).
 Emit = Callable[[str, FswMessage], None]
-RunState = Literal["start", "running", "end-of-run", "error"]
 
 
 @lru_cache(maxsize=4096)

@@ -37,6 +37,8 @@ MEASUREMENT_DIMENSION: dict[str, int | None] = {k.name: k.dimension for k in kin
 AnomalyClass = Literal["none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown"]
 ANOMALY_CLASSES: tuple[str, ...] = ("none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown")
 
+RunState = Literal["start", "running", "end-of-run", "error"]
+
 TelecommandName = Literal["reset-gating", "enable-filter", "disable-filter", "set-param", "status"]
 TELECOMMANDS: tuple[str, ...] = ("reset-gating", "enable-filter", "disable-filter", "set-param", "status")
 
@@ -243,7 +245,7 @@ class RunStatus:
     timestamp: Stamp = spec(doc="epoch as Unix time")
     run_id: str = spec(doc="run identifier (the Zenoh key prefix navbank/<run-id>/)")
     source: Literal["sim", "fsw", "ground", "replay"] = spec(doc="process reporting")
-    state: Literal["start", "running", "end-of-run", "error"] = spec(doc="lifecycle state")
+    state: RunState = spec(doc="lifecycle state")
     counts: dict[str, int] = spec(default_factory=dict, doc="counters, e.g. published, processed, rejected, lost")
     message: str = spec("", doc="human-readable detail (errors)")
 

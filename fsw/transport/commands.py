@@ -59,10 +59,13 @@ class CommandServer:
         self._lock = threading.Lock()
         k = topics.key(run_id, topics.FSW_COMMAND)
         self.threaded = threaded
+        # a callback queryable serves on Zenoh's thread; a FIFO one waits for poll()
+        self._queryable: zenoh.Queryable[None] | zenoh.Queryable[zenoh.handlers.Handler[zenoh.Query]] | None
+        self._fifo: zenoh.Queryable[zenoh.handlers.Handler[zenoh.Query]] | None = None
         if threaded:
             self._queryable = session.declare_queryable(k, self._serve)
         else:
-            self._queryable = session.declare_queryable(k, zenoh.handlers.FifoChannel(256))
+            self._queryable = self._fifo = session.declare_queryable(k, zenoh.handlers.FifoChannel(256))
 
     def _answer(self, payload: bytes | None, schema: str) -> TelecommandReply:
         if payload is None:
@@ -113,10 +116,10 @@ class CommandServer:
 
     def poll(self) -> int:
         """Serve every waiting command on this thread (``threaded=False``); returns how many."""
-        if self.threaded or self._queryable is None:
+        if self._fifo is None:
             return 0
         n = 0
-        while (query := self._queryable.try_recv()) is not None:
+        while (query := self._fifo.try_recv()) is not None:
             self._serve(query)
             n += 1
         return n
@@ -131,7 +134,7 @@ class CommandServer:
                 self._queryable.undeclare()
             except zenoh.ZError:
                 pass
-            self._queryable = None
+            self._queryable = self._fifo = None
 
     def __enter__(self) -> "CommandServer":
         return self

@@ -239,7 +239,7 @@ class Subscriber:
                 if expected is not None and pub_seq > expected:
                     self.gaps[topic] = self.gaps.get(topic, 0) + (pub_seq - expected)
                 self._next_seq[topic] = pub_seq + 1
-        message = None
+        message: object | None = None
         try:
             cls = topics.type_of_topic(topic)
         except KeyError:

@@ -58,7 +58,7 @@ def recorded_fsw_telemetry(path: str | os.PathLike) -> tuple[dict[str, list], in
             cls = topics.type_of_topic(topic)
         except KeyError:
             continue
-        decoded = []
+        decoded: list[object] = []
         for m in msgs:
             try:
                 decoded.append(codec.from_json(cls, m.data))
