@@ -35,7 +35,7 @@ def test_nominal_plan_has_no_fault_no_detector_and_the_network(tmp_path, monkeyp
         assert t.scenario["fsw"]["detector"]["calibration"] is None
         assert t.scenario["fsw"]["detector"]["network"] == "chi2"
         assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["magill", "chi2"]
-        assert t.payload()["extract_weights"] == ["chi2"]
+        assert t.extract_weights == ("chi2",)
 
 
 @pytest.mark.slow
@@ -91,7 +91,7 @@ def test_several_networks_share_one_set_of_nominal_runs(tmp_path, monkeypatch):
     plan = expand(nominal_campaign("short.yaml", ["chi2", "chi2-two-sided", "magill"], 2, 1001))
     for t in plan.tasks:
         assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["magill", "chi2", "chi2-two-sided"]
-        assert t.payload()["extract_weights"] == ["chi2", "chi2-two-sided", "magill"]
+        assert t.extract_weights == ("chi2", "chi2-two-sided", "magill")
         assert t.scenario["fsw"]["detector"]["calibration"] is None
 
 

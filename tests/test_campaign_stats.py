@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 from scipy import optimize, stats
 
+from campaign_rows import complete_row
+from ground.report.row_types import ResultRow
 from tools.campaign.report import render
 from tools.campaign.stats import binomial, compute, latency_stats, poisson_rate
 from tools.cli import main
@@ -30,10 +32,14 @@ def _summary(*, declared=False, false_alarm=False, latency_h=None, cls="none", t
 
 
 def _row(rid, fault, seed, summary, *, fault_class, calibrated=True, status="ok", span=10.0):
-    return {"id": rid, "cell": {"scenario": "s", "fault": fault, "variant": "v"}, "seed": seed,
+    return complete_row({"id": rid, "cell": {"scenario": "s", "fault": fault, "variant": "v"}, "seed": seed,
             "fault_class": fault_class, "detector": {"network": "chi2", "calibrated": calibrated},
             "span_days": span, "status": status, "summary": summary if status == "ok" else None,
-            "error": None if status == "ok" else {"type": "ValueError", "message": "boom"}, "wall_time_s": 2.0}
+            "error": None if status == "ok" else {"type": "ValueError", "message": "boom"}, "wall_time_s": 2.0})
+
+
+def _decoded(rows):
+    return [ResultRow.from_json(r) for r in rows]
 
 
 OPT = "optical-measurement"
@@ -105,7 +111,7 @@ def test_latency_percentiles_by_hand():
 
 
 def test_cell_statistics_on_hand_made_rows():
-    s = compute(_rows())
+    s = compute(_decoded(_rows()))
     ob = _cell(s, "ob")
     assert ob["runs"]["ok"] == 5 and ob["runs"]["failed"] == 1
     assert ob["detection"]["k"] == 3 and ob["detection"]["n"] == 5
@@ -126,7 +132,7 @@ def test_cell_statistics_on_hand_made_rows():
 
 
 def test_confusion_matrix_by_hand():
-    s = compute(_rows())
+    s = compute(_decoded(_rows()))
     (g,) = s["confusion"]
     assert g["true_classes"] == ["none", OPT]
     assert g["matrix"]["none"] == {"none": 3, OPT: 1, RAD: 0}
@@ -137,7 +143,7 @@ def test_uncalibrated_cells_report_na_and_weight_table_layout():
     rows = [_row(f"u{i}", "none", i, _summary(), fault_class="none", calibrated=False) for i in range(3)]
     rows += [_row(f"v{i}", "ob", i, _summary(weights=(0.9, 0.05, 0.05), true_class=OPT), fault_class=OPT,
                   calibrated=False) for i in range(3)]
-    s = compute(rows)
+    s = compute(_decoded(rows))
     assert all(c["detection"] is None and c["false_alarm"] is None for c in s["cells"])
     assert s["confusion"] == []
     (t,) = s["weight_tables"]
@@ -150,7 +156,7 @@ def test_plan_gives_missing_runs_and_ignores_stale_rows():
     rows = _rows()
     plan = {"name": "p", "cells": [{"scenario": "s", "fault": "none", "variant": "v", "key": "s / none / v"}],
             "runs": [{"id": f"n{i}", "cell": "s / none / v", "seed": i} for i in range(1, 7)]}
-    s = compute(rows, plan)
+    s = compute(_decoded(rows), plan)
     assert [c["fault"] for c in s["cells"]] == ["none"]
     assert s["runs"]["planned"] == 6 and s["runs"]["missing"] == 2 and s["runs"]["stale_rows"] == 6
     assert _cell(s, "none")["runs"]["missing"] == 2

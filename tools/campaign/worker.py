@@ -1,15 +1,17 @@
 """What a campaign worker does with one run: fly it in process and return one result row.
 
 The function is importable by name (``tools.campaign.worker.execute``) so a spawned process pool
-and a dask worker run the same code. Its input and output are plain data: the row (the run's
-summary, id, cell, seed, status, error, wall time) and, on request, gating networks' weight
-histories as compact arrays — never the run's messages, which are ~10^5 objects for a 45-day run.
+and a dask worker run the same code. Its input and output are declared records: a
+:class:`~tools.campaign.task.RunTask` in, a :class:`RunOutcome` out — the
+:class:`~ground.report.row_types.ResultRow` (the run's summary, id, cell, seed, status, error, wall
+time) and, on request, gating networks' weight histories as compact arrays — never the run's
+messages, which are ~10^5 objects for a 45-day run.
 
-Monitors (``payload["monitors"]``: network -> detector calibration) are further anomaly
+Monitors (``task.monitors``: network -> detector calibration) are further anomaly
 detectors evaluated on the same run: each network's FilterWeights stream is replayed, in order,
 through a fresh :class:`~fsw.fdir.detector.AnomalyDetector` built exactly as the FSW builds its own
-(the calibration and the bank's family tags), and ``summary["monitors"][network]`` gets the same
-block as ``summary["anomaly"]`` (one definition: :func:`ground.report.run_facts.anomaly_summary`).
+(the calibration and the bank's family tags), and ``summary.monitors[network]`` gets the same
+block as ``summary.anomaly`` (one definition: :func:`ground.report.run_facts.anomaly_summary`).
 
 Any exception raised by the run itself is caught here and becomes a ``failed`` row with the error
 type, message and the tail of the traceback: one bad run never stops a campaign.
@@ -17,6 +19,7 @@ type, message and the tail of the traceback: one bad run never stops a campaign.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import socket
 import time
@@ -31,9 +34,12 @@ from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.fdir.errors import FdirInputError
 from fsw.fdir.families import FilterFamily
 from fsw.interface import messages as m, topics, typed
+from ground.report.row_types import ResultRow
+from ground.report.run_facts import anomaly_summary
+from ground.report.summary_types import AnomalyBlock, ErrorRecord, MonitorBlock
+from tools.campaign.task import RunTask
 from tools.inprocess import RunResult, run_in_process
 from tools.scenario import ScenarioConfig
-from ground.report.run_facts import anomaly_summary
 
 TRACEBACK_LINES = 12
 
@@ -139,38 +145,50 @@ def monitor_summaries(result: RunResult, monitors: dict[str, dict]) -> dict[str,
     return out
 
 
-def error_record(exc: BaseException) -> dict[str, str]:
+def error_record(exc: BaseException) -> ErrorRecord:
     tb = traceback.format_exception(type(exc), exc, exc.__traceback__)
     tail = "".join(tb).rstrip().splitlines()[-TRACEBACK_LINES:]
-    return {"type": type(exc).__name__, "message": str(exc), "traceback": "\n".join(tail)}
+    return ErrorRecord(type=type(exc).__name__, message=str(exc), traceback="\n".join(tail))
 
 
-def base_row(payload: dict) -> dict[str, Any]:
-    return {
-        "id": payload["id"], "cell": payload["cell"], "seed": payload["seed"],
-        "fault_class": payload["fault_class"], "detector": payload["detector"],
-        "span_days": payload["span_days"],
-    }
+def base_row(task: RunTask) -> ResultRow:
+    return ResultRow(id=task.id, cell=task.cell, seed=task.seed, fault_class=task.fault_class,
+                     detector=task.detector, span_days=task.span_days)
 
 
-def execute(payload: dict) -> dict[str, Any]:
-    """Run one campaign run; returns ``{"row": row, "weights": None | {network: arrays}}``."""
+@dataclass(frozen=True)
+class RunOutcome:
+    """What a worker hands back: the row, and the weight histories the task asked for."""
+
+    row: ResultRow
+    weights: dict[str, dict[str, Any]] | None = None
+
+
+def _monitor_blocks(result: RunResult, monitors: dict[str, dict]) -> dict[str, MonitorBlock]:
+    # monitor_summaries reads the summary in its JSON form and gives, per network, an anomaly
+    # block or {"error": record}
+    as_json = dataclasses.replace(result, summary=result.summary.to_json())
+    return {net: MonitorBlock(anomaly=v) if isinstance(v, AnomalyBlock) else MonitorBlock(error=v["error"])
+            for net, v in monitor_summaries(as_json, monitors).items()}
+
+
+def execute(task: RunTask) -> RunOutcome:
+    """Run one campaign run (see the module docstring)."""
     t0 = time.perf_counter()
-    row = base_row(payload)
-    row.update({"host": socket.gethostname(), "pid": os.getpid()})
+    row = dataclasses.replace(base_row(task), host=socket.gethostname(), pid=os.getpid())
     weights = None
     try:
-        cfg = typed.decode(ScenarioConfig, payload["scenario"])
-        result = run_in_process(cfg, payload["seed"], fault_label=payload["fault_label"], run_id=payload["id"])
-        nets = payload.get("extract_weights") or ()
-        if nets:
-            weights = {net: weight_history(result, net) for net in nets}
-        if payload.get("monitors"):
-            result.summary["monitors"] = monitor_summaries(result, payload["monitors"])
-        row.update({"status": "ok", "error": None, "summary": result.summary})
+        cfg = typed.decode(ScenarioConfig, task.scenario)
+        result = run_in_process(cfg, task.seed, fault_label=task.fault_label, run_id=task.id)
+        if task.extract_weights:
+            weights = {net: weight_history(result, net) for net in task.extract_weights}
+        summary = result.summary
+        if task.monitors:
+            summary = dataclasses.replace(summary, monitors=_monitor_blocks(result, task.monitors))
+        row = dataclasses.replace(row, status="ok", error=None, summary=summary)
         del result
     except Exception as exc:  # a failed run is data for the campaign, not the end of it
-        row.update({"status": "failed", "error": error_record(exc), "summary": None})
-    row["wall_time_s"] = time.perf_counter() - t0
-    row["finished_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-    return {"row": row, "weights": weights}
+        row = dataclasses.replace(row, status="failed", error=error_record(exc), summary=None)
+    return RunOutcome(dataclasses.replace(row, wall_time_s=time.perf_counter() - t0,
+                                          finished_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())),
+                      weights)

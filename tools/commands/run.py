@@ -59,7 +59,9 @@ def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, c
 
 def run(args) -> int:
     from ground.mcap_io.reader import read_messages
-    from tools.summary import describe, summarize
+    from ground.report.run_summary import summarize
+    from ground.report.summary_types import RunFiles
+    from tools.summary import describe
 
     cfg = with_budget(scenario_from_args(args), args.budget_mode, args.budget, args.cpu_scale)
     cfg, seed = resolve(cfg, args.seed)
@@ -83,9 +85,9 @@ def run(args) -> int:
                 if rec.message is not None]
     t_start = cfg.fsw.initial_state.t_s
     summary = summarize(messages, scenario=cfg.name, seed=seed, fault=args.fault, t0=t_start, wall_time_s=wall)
-    summary["run_id"] = run_id
-    summary["files"] = {"mcap": str(out / "run.mcap"), "config": str(out / "config.yaml")}
-    path = write_summary(summary, out)
+    summary = dataclasses.replace(summary, run_id=run_id,
+                                  files=RunFiles(mcap=str(out / "run.mcap"), config=str(out / "config.yaml")))
+    path = write_summary(summary.to_json(), out)
     print(describe(summary))
     print(f"files: {out / 'run.mcap'}  {path}  {out / 'config.yaml'}")
     return 0
