@@ -1,5 +1,6 @@
 """The same campaign on the local spawn pool and on a dask LocalCluster gives the same runs."""
 
+import dataclasses
 import io
 import json
 
@@ -10,6 +11,7 @@ from tools.campaign.plan import expand
 from tools.campaign.runner import run_campaign
 from tools.campaign.spec import load_campaign
 from tools.campaign.stats import compute_directory
+from ground.report.row_types import ResultRow
 from tools.campaign.store import read_rows
 
 SCENARIO = """\
@@ -33,10 +35,8 @@ matrix:
 """
 
 
-def _comparable(row: dict) -> dict:
-    s = dict(row["summary"])
-    s.pop("wall_time_s")
-    return {"status": row["status"], "seed": row["seed"], "cell": row["cell"], "summary": s}
+def _comparable(row: ResultRow) -> tuple:
+    return row.status, row.seed, row.cell, dataclasses.replace(row.summary, wall_time_s=None)
 
 
 @pytest.mark.slow
@@ -55,8 +55,8 @@ def test_local_and_dask_give_the_same_runs(tmp_path):
         assert "12/12" in stream.getvalue() and "ETA" in stream.getvalue()
         rows = read_rows(out / "runs.jsonl")
         assert len(rows.rows) == 12 and not rows.torn_tail
-        assert {r["executor"] for r in rows.rows} == {name}
-        results[name] = {r["id"]: _comparable(r) for r in rows.rows}
+        assert {r.executor for r in rows.rows} == {name}
+        results[name] = {r.id: _comparable(r) for r in rows.rows}
     assert set(results["local"]) == {t.id for t in plan.tasks} == set(results["dask"])
     for rid in results["local"]:
         assert results["local"][rid] == results["dask"][rid], rid

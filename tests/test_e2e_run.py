@@ -202,4 +202,4 @@ def test_in_process_run_equals_the_multi_process_run_in_work_unit_mode(tmp_path)
         recorded = [codec.to_json(r.message) for r in read_messages(tmp_path / "o" / "run.mcap", topics=["/" + topic])]
         mine = [codec.to_json(m) for m in local.topic(topic)]
         assert recorded and recorded == mine, topic
-    assert local.summary["anomaly"]["declared"]
+    assert local.summary.anomaly.declared

@@ -260,7 +260,7 @@ class CaseStats:
         return f"{self.case} [{self.variant}]" if self.variant and self.show_variant else self.case
 
 
-def _ordered(keys: Iterable[str]) -> list[str]:
+def reading_order(keys: Iterable[str]) -> list[str]:
     """Cases in a reading order: nominal first, then by family and size small → large."""
     def key(c: str) -> tuple:
         fam, size = split_size(c)
@@ -271,7 +271,7 @@ def _ordered(keys: Iterable[str]) -> list[str]:
 
 
 def cases(rows: list[dict]) -> list[str]:
-    return _ordered(case_of(r) for r in rows)
+    return reading_order(case_of(r) for r in rows)
 
 
 def variants(rows: list[dict]) -> list[str]:
@@ -474,7 +474,7 @@ def weight_history(camp: Campaign, network: str, scenario: str, variant: str = "
             filters.extend(f for f in names if f not in filters)
     end = max(float(d[-1]) for hs in runs.values() for d, _, _ in hs)
     days = np.linspace(0.0, end, points)
-    case_list = [c for c in _ordered(runs)]
+    case_list = [c for c in reading_order(runs)]
     shape = (len(case_list), points, len(filters))
     med, lo, hi = np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan)
     for ci, case in enumerate(case_list):

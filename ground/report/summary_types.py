@@ -110,6 +110,11 @@ class AnomalyBlock(JsonRecord):
         """The declared class, 'none' when nothing was declared."""
         return (self.anomaly_class or "unknown") if self.declared else "none"
 
+    @property
+    def first_diagnosis(self) -> str:
+        """The class at the first declaration (the settled one for blocks that do not record it)."""
+        return self.first_class if self.first_class is not None else self.anomaly_class
+
 
 @dataclass(frozen=True)
 class MonitorBlock:

@@ -107,7 +107,7 @@ def collect_histories(runs_dir: Path, ids: list[str], network: str) -> tuple[lis
     histories, names, used = [], None, []
     for rid in ids:
         row = latest.get(rid)
-        if not row or row.get("status") != "ok":
+        if row is None or row.status != "ok":
             continue
         if not has_weights(runs_dir, rid, network):
             continue

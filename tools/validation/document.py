@@ -18,6 +18,9 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ground.report.campaign_data import reading_order
+from ground.report.row_types import ResultRow
+from ground.report.summary_types import AnomalyBlock
 from tools.validation import paper
 from tools.validation.claims import TABLE3_CASES, Claim, table3_claims, table4_claim
 from tools.validation.tables import WeightRow, means, ok_rows, weight_table
@@ -191,9 +194,9 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
             top = max(mg.mean, key=mg.mean.get)
             s.claims.append(Claim(f"table4-magill-{label}", f"{label}: Magill favours the high-uncertainty fused "
                                   "filter (fused-Q)", top == "fused-Q", f"highest: {top} ({mg.mean[top]:.3f})"))
-        runs = [r for r in rows if r["cell"]["scenario"] == scen and r["cell"]["fault"] == case]
-        declared = [r["summary"]["anomaly"] for r in runs if r["summary"]["anomaly"].get("declared")]
-        classes = sorted({a.get("first_class", a.get("class")) for a in declared})
+        runs = [r for r in rows if r.cell.scenario == scen and r.cell.fault == case]
+        declared = [r.summary.anomaly for r in runs if r.summary.anomaly.declared]
+        classes = sorted({a.first_diagnosis for a in declared})
         detector_lines.append(f"* detector (chi2, calibrated for this bank), {label}: declared in "
                               f"{len(declared)}/{len(runs)} runs, diagnosed {', '.join(classes) or 'nothing'}")
     s.lines += [""] + _table(["scenario", "filter", "paper", "navbank (fault)", "navbank (no fault)"], body)
@@ -346,15 +349,15 @@ NETWORKS = ("chi2", "chi2-two-sided", "magill")
 CLASS_ORDER = ("none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown")
 
 
-def detector_results(row: dict) -> dict[str, dict]:
-    """network -> anomaly summary of one run: the onboard detector's and every monitor's."""
-    summ = row["summary"]
+def detector_results(row: ResultRow) -> dict[str, AnomalyBlock]:
+    """network -> anomaly block of one run: the onboard detector's and every monitor's."""
+    summ = row.summary
     out = {}
-    if summ.get("anomaly", {}).get("detector"):
-        out[summ["anomaly"].get("network") or row.get("detector", {}).get("network", "chi2")] = summ["anomaly"]
-    for net, a in (summ.get("monitors") or {}).items():
-        if "error" not in a:  # a replay that failed is reported by the campaign, not scored here
-            out.setdefault(net, a)
+    if summ.anomaly.detector:
+        out[summ.anomaly.network or row.detector.network] = summ.anomaly
+    for net, mon in (summ.monitors or {}).items():
+        if mon.anomaly is not None:  # a replay that failed is reported by the campaign, not scored here
+            out.setdefault(net, mon.anomaly)
     return out
 
 
@@ -362,13 +365,11 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
     from tools.campaign.stats import binomial, latency_stats
 
     s = Section("Beyond the papers: detection, false alarms, latency, characterization")
-    from ground.report.campaign_data import cases as reading_order
-
-    rows = sorted(ok_rows(camp), key=lambda r: (r["cell"]["fault"], r["seed"]))
-    cases = reading_order(rows)
-    n_seeds = max((sum(1 for r in rows if r["cell"]["fault"] == c) for c in cases), default=0)
-    onsets = sorted({round(r["summary"]["anomaly"].get("onset_true_day") or 0.0, 2) for r in rows
-                     if r["summary"]["anomaly"].get("onset_true_day") is not None})
+    rows = sorted(ok_rows(camp), key=lambda r: (r.cell.fault, r.seed))
+    cases = reading_order(r.cell.fault for r in rows)
+    n_seeds = max((sum(1 for r in rows if r.cell.fault == c) for c in cases), default=0)
+    onsets = sorted({round(r.summary.anomaly.onset_true_day, 2) for r in rows
+                     if r.summary.anomaly.onset_true_day is not None})
     s.lines += [
         "Every fault preset on `insight-approach` (presets start on day "
         + ", ".join(f"{d:g}" for d in onsets) + f"), {n_seeds} seeds per case (seeds 1–{n_seeds}), one run per "
@@ -388,10 +389,10 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
         "```",
         "",
     ]
-    by_net: dict[str, dict[str, list[dict]]] = {}
+    by_net: dict[str, dict[str, list[AnomalyBlock]]] = {}
     for r in rows:
         for net, a in detector_results(r).items():
-            by_net.setdefault(net, {}).setdefault(r["cell"]["fault"], []).append(a)
+            by_net.setdefault(net, {}).setdefault(r.cell.fault, []).append(a)
     nets = [n for n in NETWORKS if n in by_net] + [n for n in by_net if n not in NETWORKS]
     body = []
     for case in cases:
@@ -401,20 +402,20 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
             if not res:
                 cells.append("n/a")
                 continue
-            if res[0].get("true_class", "none") == "none":
-                b = binomial(sum(bool(a["declared"]) for a in res), len(res))
+            if res[0].true_class == "none":
+                b = binomial(sum(a.declared for a in res), len(res))
                 cells.append(f"FA {b['k']}/{b['n']} [{100 * b['ci'][0]:.0f}–{100 * b['ci'][1]:.0f} %]")
                 continue
-            det = [a for a in res if a["declared"] and not a.get("false_alarm")]
+            det = [a for a in res if a.detected]
             b = binomial(len(det), len(res))
-            lat = latency_stats([a["latency_s"] for a in det if a.get("latency_s") is not None])
-            correct = sum(1 for a in det if a.get("first_class", a.get("class")) == a.get("true_class"))
+            lat = latency_stats([a.latency_s for a in det if a.latency_s is not None])
+            correct = sum(1 for a in det if a.first_diagnosis == a.true_class)
             txt = f"{b['k']}/{b['n']} [{100 * b['ci'][0]:.0f}–{100 * b['ci'][1]:.0f} %]"
             if lat:
                 txt += f", {lat['median_h']:.0f} h (p90 {lat['p90_h']:.0f} h)"
             if det:
                 txt += f", class {correct}/{len(det)}"
-            pre = sum(1 for a in res if a.get("false_alarm"))
+            pre = sum(1 for a in res if a.false_alarm)
             if pre:
                 txt += f", {pre} pre-onset FA"
             cells.append(txt)
@@ -427,8 +428,8 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
         mat: dict[tuple[str, str], int] = {}
         for case, res in by_net[net].items():
             for a in res:
-                got = a.get("first_class", a.get("class")) if a["declared"] else "none"
-                key = (a.get("true_class", "none"), got or "unknown")
+                got = a.first_diagnosis if a.declared else "none"
+                key = (a.true_class, got or "unknown")
                 mat[key] = mat.get(key, 0) + 1
                 for c in key:
                     if c not in classes:
