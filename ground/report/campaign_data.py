@@ -24,7 +24,7 @@ statistics and confusion matrices therefore come out per network, while the weig
 from the runs once.
 
 Detection probabilities carry exact (Clopper–Pearson) intervals, the same as the campaign's own
-``summary.json`` (:func:`fsw.fdir.calibrate.clopper_pearson`).
+``summary.json`` (:func:`ground.report.intervals.clopper_pearson`).
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from fsw.fdir.calibrate import clopper_pearson
+from ground.report.intervals import clopper_pearson
 from fsw.interface.messages import ANOMALY_CLASSES
 
 RUNS_FILE = "runs.jsonl"

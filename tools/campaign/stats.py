@@ -46,7 +46,7 @@ from typing import Any, Iterable
 import numpy as np
 from scipy import stats as sps
 
-from fsw.fdir.calibrate import clopper_pearson
+from ground.report.intervals import clopper_pearson
 from fsw.interface.messages import ANOMALY_CLASSES
 from ground.report.row_types import DetectorFacts, ResultRow
 from ground.report.summary_types import ErrorRecord

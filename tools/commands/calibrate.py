@@ -15,7 +15,7 @@ Procedure (this is how the calibrated values in the built-in scenarios are repro
 2. Weight histories. Each worker keeps only the FilterWeights of ``--network`` (topic
    ``fsw/weights/<network>``) and sends back one (batches x filters) array with the batch epochs;
    they are stored as ``RUNS_DIR/weights/<id>.npz``.
-3. Calibration: :func:`fsw.fdir.calibrate.calibrate` on those arrays (its module docstring gives
+3. Calibration: :func:`tools.calibration.thresholds.calibrate` on those arrays (its module docstring gives
    the statistics: nominal band, k-of-n critical values, empirical or Gumbel threshold, hysteresis
    and onset reference) with ``--target-fa`` per run (or per ``--segment-batches`` segment),
    ``--warmup``, ``--persistence K N``, ``--hold`` and ``--statistic``.
@@ -39,16 +39,15 @@ from pathlib import Path
 import numpy as np
 
 from fsw.config import DetectorSection, GatingEntry
-from fsw.fdir.calibrate import CalibrationReport, calibrate, false_alarm_prediction_interval
 from fsw.fdir.config import config_to_yaml
-from fsw.fdir.errors import CalibrationError
 from fsw.interface.yamlconfig import dump_yaml, load_text
+from tools.calibration.thresholds import CalibrationError, CalibrationReport, calibrate, false_alarm_prediction_interval
 from tools.campaign.plan import expand
 from tools.campaign.runner import run_campaign
 from tools.campaign.spec import CampaignConfig, FaultCase, LoadedCampaign, MatrixBlock, NetworkVariant, SeedPlan
 from tools.campaign.store import has_weights, load_weights, read_rows
-from tools.cli import UsageError
 from tools.commands.campaign import executor_factory
+from tools.commands.errors import UsageError
 from tools.scenario import ScenarioConfig, load_scenario
 
 NAME = "calibrate"

@@ -12,7 +12,7 @@ from tools.campaign.runner import run_campaign, select_tasks
 from tools.campaign.spec import builtin_names, load_campaign
 from tools.campaign.stats import compute_directory, write_outputs
 from tools.campaign.store import read_rows
-from tools.cli import UsageError
+from tools.commands.errors import UsageError
 
 NAME = "campaign"
 HELP = "run a Monte Carlo fault-injection campaign (scenarios x faults x gating networks x seeds)"

@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from tools.cli import UsageError
+from tools.commands.errors import UsageError
 from tools.commands.common import add_scenario_arguments, new_run_id, run_id_arg, scenario_from_args
 from tools.launcher import RunFailed, launch, write_summary
 from tools.scenario import ScenarioConfig, resolve

@@ -125,7 +125,8 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
     """The report section: seed ``seeds[0]`` in the table and figure, every finding counted over all
     seeds (one in-process cruise each, ~20 s)."""
     from tools.validation import paper
-    from tools.validation.document import Claim, Section, _figure_links, _table, claims_lines
+    from tools.validation.claims import Claim
+    from tools.validation.section import Section, claims_lines, figure_links, table
 
     runs = results or [run_cruise(seed) for seed in seeds]
     r = runs[0]
@@ -152,12 +153,12 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
         "the arc (before the change) and over the last quarter (after it); KF j|i is `kfj_i`:",
         "",
     ]
-    s.lines += _table(["bank", "g_i before", "g_i after", "g_j|i before", "g_j|i after"],
+    s.lines += table(["bank", "g_i before", "g_i after", "g_j|i before", "g_j|i after"],
                       [[b, f"{r.top_mean_before[b]:.3f}", f"{r.top_mean_after[b]:.3f}",
                         ", ".join(f"{f} {w:.2f}" for f, w in r.in_bank_before[b].items()),
                         ", ".join(f"{f} {w:.2f}" for f, w in r.in_bank_after[b].items())] for b in r.banks])
     s.lines += ["", "Every seed:", ""]
-    s.lines += _table(["seed", "top bank before / after", "bank 3 overtakes bank 2 for good",
+    s.lines += table(["seed", "top bank before / after", "bank 3 overtakes bank 2 for good",
                        "bank 2 pick before / after", "bank 3 pick after", "bank 4 pick"],
                       [[str(x.seed), f"{_pick(x.top_mean_before)} / {_pick(x.top_mean_after)}",
                         (f"day {x.overtake_day:.1f} ({x.overtake_measurements} meas. after the change)"
@@ -189,5 +190,5 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
         Claim("s0-bank4", "bank 4 favours KF 1|4 and KF 2|4", 2 * k4 > n, f"{k4}/{n} seeds"),
     ]
     s.lines += ["", "Findings (a finding about a single selection counts as reproduced when it holds in most seeds):",
-                "", *claims_lines(s.claims), "", *_figure_links([fig], doc_dir), ""]
+                "", *claims_lines(s.claims), "", *figure_links([fig], doc_dir), ""]
     return s

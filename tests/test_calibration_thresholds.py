@@ -8,16 +8,16 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from fsw.fdir.calibrate import (
+from ground.report.intervals import clopper_pearson
+from tools.calibration.__main__ import main
+from tools.calibration.thresholds import (
+    CalibrationError,
     calibrate,
-    clopper_pearson,
     evaluate_false_alarms,
     false_alarm_prediction_interval,
-    main,
 )
 from fsw.fdir.config import config_from_yaml, config_to_yaml
 from fsw.fdir.detector import AnomalyDetector
-from fsw.fdir.errors import CalibrationError
 from fsw.fdir.persistence import KOfN, critical_value
 from fsw.interface.yamlconfig import ConfigError
 from test_fdir_synthetic import BANK3, BANK6, names, simulate_chi2
