@@ -34,7 +34,6 @@ import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -381,11 +380,6 @@ def mean_weights(rows: list[dict], network: str, variant: str = "", which: str =
             mean[i] = np.nanmean(W, axis=0)
             std[i] = np.nanstd(W, axis=0) if len(W) > 1 else 0.0
     return MeanWeights(network, variant, case_list, filters, mean, std, n)
-
-
-def describe_rows(rows: list[dict]) -> dict[str, Any]:
-    """A few headline numbers of a campaign."""
-    return {"runs": len(rows), "cases": len(cases(rows)), "variants": variants(rows), "networks": networks(rows)}
 
 
 WEIGHTS_DIR = "weights"
