@@ -11,23 +11,16 @@ from tools.cli import main
 from tools.commands.calibrate import nominal_campaign
 from tools.scenario import ScenarioConfig, load_scenario
 
-SCENARIO = """\
-name: short
-sim:
-  trajectory: {span_days: 2.0}
-  faults:
-    - {type: optical-bias, onset_day: 1.0, sample_px: 2.0, line_px: 3.0}
-fsw:
-  budget: {mode: work-units}
-  gating:
-    - {network: magill}
-  detector: {network: magill}
-"""
+
+def _scenario(short_scenario, *more_gating: str) -> str:
+    # a fault the nominal calibration runs must drop, and a Magill detector they must not keep
+    return short_scenario(faults=("{type: optical-bias, onset_day: 1.0, sample_px: 2.0, line_px: 3.0}",),
+                          gating=("{network: magill}", *more_gating), detector="magill")
 
 
-def test_nominal_plan_has_no_fault_no_detector_and_the_network(tmp_path, monkeypatch):
+def test_nominal_plan_has_no_fault_no_detector_and_the_network(tmp_path, short_scenario, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+    (tmp_path / "short.yaml").write_text(_scenario(short_scenario))
     plan = expand(nominal_campaign("short.yaml", "chi2", 4, 1001), extract_weights="chi2")
     assert [t.seed for t in plan.tasks] == [1001, 1002, 1003, 1004]
     for t in plan.tasks:
@@ -39,10 +32,9 @@ def test_nominal_plan_has_no_fault_no_detector_and_the_network(tmp_path, monkeyp
 
 
 @pytest.mark.slow
-def test_calibrate_writes_detector_and_scenario(tmp_path, monkeypatch, capsys):
+def test_calibrate_writes_detector_and_scenario(tmp_path, short_scenario, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "short.yaml").write_text(SCENARIO.replace("    - {network: magill}", "    - {network: magill}\n"
-                                                          "    - {network: chi2, batch_size: 200}"))
+    (tmp_path / "short.yaml").write_text(_scenario(short_scenario, "{network: chi2, batch_size: 200}"))
     args = ["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--seeds", "10", "--target-fa", "0.1",
             "--workers", "2", "--out", "det.yaml", "--write-scenario", "cal.yaml", "--runs-dir", "runs", "--quiet"]
     assert main(args) == 0
@@ -85,9 +77,9 @@ def test_calibrate_rejects_bad_arguments(capsys):
     assert len(capsys.readouterr().err.strip().splitlines()) == 3
 
 
-def test_several_networks_share_one_set_of_nominal_runs(tmp_path, monkeypatch):
+def test_several_networks_share_one_set_of_nominal_runs(tmp_path, short_scenario, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+    (tmp_path / "short.yaml").write_text(_scenario(short_scenario))
     plan = expand(nominal_campaign("short.yaml", ["chi2", "chi2-two-sided", "magill"], 2, 1001))
     for t in plan.tasks:
         assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["magill", "chi2", "chi2-two-sided"]
@@ -96,10 +88,9 @@ def test_several_networks_share_one_set_of_nominal_runs(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_calibrate_several_networks_to_a_directory(tmp_path, monkeypatch, capsys):
+def test_calibrate_several_networks_to_a_directory(tmp_path, short_scenario, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "short.yaml").write_text(SCENARIO.replace("    - {network: magill}", "    - {network: magill}\n"
-                                                          "    - {network: chi2, batch_size: 200}"))
+    (tmp_path / "short.yaml").write_text(_scenario(short_scenario, "{network: chi2, batch_size: 200}"))
     args = ["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--network", "magill", "--seeds", "4",
             "--target-fa", "0.2", "--workers", "2", "--out-dir", "dets", "--runs-dir", "runs", "--quiet"]
     assert main(args) == 0

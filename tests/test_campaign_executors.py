@@ -14,17 +14,6 @@ from tools.campaign.stats import compute_directory
 from ground.report.row_types import ResultRow
 from tools.campaign.store import read_rows
 
-SCENARIO = """\
-name: short
-sim:
-  trajectory: {span_days: 2.5}
-fsw:
-  budget: {mode: work-units}
-  gating:
-    - {network: chi2, batch_size: 200}
-    - {network: magill}
-"""
-
 CAMPAIGN = """\
 name: optical-short
 seeds: {count: 3, base: 1}
@@ -40,8 +29,8 @@ def _comparable(row: ResultRow) -> tuple:
 
 
 @pytest.mark.slow
-def test_local_and_dask_give_the_same_runs(tmp_path):
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+def test_local_and_dask_give_the_same_runs(tmp_path, short_scenario):
+    (tmp_path / "short.yaml").write_text(short_scenario(2.5))
     (tmp_path / "c.yaml").write_text(CAMPAIGN)
     plan = expand(load_campaign(str(tmp_path / "c.yaml")))
     assert len(plan.tasks) == 12

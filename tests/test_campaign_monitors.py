@@ -21,16 +21,6 @@ from ground.report.run_facts import anomaly_summary
 FILTERS = ("radio", "optical", "fused")
 DAY = 86400.0
 
-SCENARIO = """\
-name: short
-sim:
-  trajectory: {span_days: 2.0}
-fsw:
-  budget: {mode: work-units}
-  gating:
-    - {network: chi2, batch_size: 100}
-"""
-
 CAMPAIGN = """\
 name: mon
 seeds: {count: 1, base: 1}
@@ -54,8 +44,8 @@ def _calibration(network: str, threshold: float = 8.0) -> DetectorConfig:
                           persistence_n=3, hold=3)
 
 
-def _write(tmp_path, campaign: str = CAMPAIGN):
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+def _write(tmp_path, short_scenario, campaign: str = CAMPAIGN):
+    (tmp_path / "short.yaml").write_text(short_scenario(gating=("{network: chi2, batch_size: 100}",)))
     for net in ("chi2", "chi2-two-sided", "magill"):
         (tmp_path / f"det-{net}.yaml").write_text(config_to_yaml(_calibration(net)))
     (tmp_path / "c.yaml").write_text(campaign)
@@ -90,8 +80,8 @@ def test_anomaly_block_by_hand():
 
 # -- the plan -----------------------------------------------------------------------------------
 
-def test_monitored_networks_join_the_gating_list_and_the_task(tmp_path):
-    plan = expand(load_campaign(str(_write(tmp_path))))
+def test_monitored_networks_join_the_gating_list_and_the_task(tmp_path, short_scenario):
+    plan = expand(load_campaign(str(_write(tmp_path, short_scenario))))
     assert len(plan.tasks) == 2
     for t in plan.tasks:
         assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["chi2", "chi2-two-sided", "magill"]
@@ -101,15 +91,15 @@ def test_monitored_networks_join_the_gating_list_and_the_task(tmp_path):
         assert t.monitors["magill"]["threshold"] == 8.0
     assert plan.to_json()["cells"][0]["detector"]["monitors"] == ["chi2", "chi2-two-sided", "magill"]
     # monitors change the summary, not the flight: the same cell without them is another run id
-    bare = expand(load_campaign(str(_write(tmp_path, CAMPAIGN.replace(
+    bare = expand(load_campaign(str(_write(tmp_path, short_scenario, CAMPAIGN.replace(
         "        monitors: {chi2: det-chi2.yaml, chi2-two-sided: det-chi2-two-sided.yaml, magill: det-magill.yaml}\n",
         "        gating: [{network: chi2, batch_size: 100}, {network: chi2-two-sided}, {network: magill}]\n")))))
     assert [t.scenario for t in bare.tasks] == [t.scenario for t in plan.tasks]
     assert {t.id for t in bare.tasks}.isdisjoint({t.id for t in plan.tasks})
 
 
-def test_monitor_calibration_of_another_network_or_bank_is_one_line(tmp_path):
-    path = _write(tmp_path, CAMPAIGN.replace("magill: det-magill.yaml", "magill: det-chi2.yaml"))
+def test_monitor_calibration_of_another_network_or_bank_is_one_line(tmp_path, short_scenario):
+    path = _write(tmp_path, short_scenario, CAMPAIGN.replace("magill: det-magill.yaml", "magill: det-chi2.yaml"))
     with pytest.raises(ConfigError) as exc:
         expand(load_campaign(str(path)))
     assert "monitors.magill" in str(exc.value) and "'chi2'" in str(exc.value)
@@ -141,8 +131,8 @@ def test_detection_matrix_carries_three_detectors_on_one_run(tmp_path):
 
 # -- the worker: replay equals the onboard detector ---------------------------------------------
 
-def test_replayed_detector_equals_the_onboard_one_on_a_real_run(tmp_path):
-    plan = expand(load_campaign(str(_write(tmp_path))))
+def test_replayed_detector_equals_the_onboard_one_on_a_real_run(tmp_path, short_scenario):
+    plan = expand(load_campaign(str(_write(tmp_path, short_scenario))))
     task = next(t for t in plan.tasks if t.cell.fault == "optical-bias-medium")
     row = execute(task).row
     assert row.status == "ok", row.error

@@ -13,17 +13,6 @@ import pytest
 
 from tools.campaign.store import read_rows
 
-SCENARIO = """\
-name: short
-sim:
-  trajectory: {span_days: 2.0}
-fsw:
-  budget: {mode: work-units}
-  gating:
-    - {network: chi2, batch_size: 200}
-    - {network: magill}
-"""
-
 # the `broken` variant fails at run time (the entry epoch is only parsed when the run starts); its
 # block comes last so that the interruptions below land on runs that take a few seconds
 CAMPAIGN = """\
@@ -71,8 +60,8 @@ def _check_whole_lines(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_interrupt_resume_failures_and_rerun_failed(tmp_path):
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+def test_interrupt_resume_failures_and_rerun_failed(tmp_path, short_scenario):
+    (tmp_path / "short.yaml").write_text(short_scenario())
     (tmp_path / "c.yaml").write_text(CAMPAIGN)
 
     # 1. one Ctrl-C: stop submitting, let the running run finish, exit 130

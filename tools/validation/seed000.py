@@ -66,7 +66,7 @@ def analyse(result: RunResult) -> CruiseResults:
     top, in_bank = h.top, h.in_bank
     change = min((f.onset_day for f in cfg.sim.faults if f.type == "nga-level"), default=np.nan)
     span = cfg.sim.trajectory.span_days
-    counts = result.summary["measurements"]["processed"]
+    counts = result.summary.measurements.processed
     res = CruiseResults(result.seed, counts, float(change), float(span), banks, groups, t_day, top, in_bank)
     before = (t_day >= change / 2) & (t_day < change)  # the second quarter: after the start-up transient
     after = t_day >= change + (span - change) / 2     # the last quarter
@@ -84,7 +84,7 @@ def analyse(result: RunResult) -> CruiseResults:
             first = post[last_behind[-1] + 1] if last_behind.size else post[0]
             res.overtake_day = float(t_day[first])
             res.overtake_measurements = int(first - post[0] + 1)
-    res.wall_s = float(result.summary.get("wall_time_s", 0.0) or 0.0)
+    res.wall_s = float(result.summary.wall_time_s or 0.0)
     return res
 
 
