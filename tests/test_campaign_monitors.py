@@ -192,7 +192,8 @@ def test_every_detector_is_its_own_variant_in_the_statistics():
         "runs": [{"id": i, "cell": f"s / {f} / v", "seed": 1} for i, f in
                  (("n1", "none"), ("n2", "none"), ("o1", "ob"), ("o2", "ob"), ("o3", "ob"), ("o4", "ob"),
                   ("o5", "ob"))]}
-    s = compute([ResultRow.from_json(r) for r in _mrows()], plan)
+    stats = compute([ResultRow.from_json(r) for r in _mrows()], plan)
+    s = stats.to_json()
     cells = {(c["fault"], c["variant"]): c for c in s["cells"]}
     assert list(cells) == [("none", "v / chi2"), ("none", "v / magill"), ("ob", "v / chi2"), ("ob", "v / magill")]
     chi2, mag = cells[("ob", "v / chi2")], cells[("ob", "v / magill")]
@@ -211,7 +212,7 @@ def test_every_detector_is_its_own_variant_in_the_statistics():
     assert conf["v / chi2"]["matrix"][OPT]["none"] == 1 and conf["v / chi2"]["matrix"][OPT][OPT] == 2
     (table,) = s["weight_tables"]  # the runs' weights once, under the real variant
     assert table["variant"] == "v" and [r["case"] for r in table["rows"]] == ["none", "ob"]
-    md = render(s)
+    md = render(stats)
     assert "## Detectors side by side" in md and "| fault | chi2 | magill |" in md
     assert "| ob | 2/3 66.7 % [9, 99] | 1/2 50.0 % [1, 99] |" in md
     assert "| none | FA 0/2 0.0 % [0, 84]; 0/day | FA 1/2 50.0 % [1, 99]; 0.0833/day |" in md

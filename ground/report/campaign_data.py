@@ -41,7 +41,6 @@ from ground.report.intervals import clopper_pearson
 from fsw.interface.messages import ANOMALY_CLASSES
 
 RUNS_FILE = "runs.jsonl"
-SUMMARY_FILE = "summary.json"
 OK_STATUSES = frozenset({"ok", "done", "complete", "completed", "success", "succeeded", "cached", "reused"})
 SIZES = ("small", "medium", "large")
 
@@ -56,11 +55,10 @@ class Campaign:
     rows: list[dict]  # successful runs
     failed: list[dict] = field(default_factory=list)
     bad_lines: int = 0  # lines of runs.jsonl that were not JSON objects
-    summary: dict | None = None  # summary.json, if present
 
 
 def load_campaign(path: str | Path) -> Campaign:
-    """Read ``runs.jsonl`` (and ``summary.json`` when present) from a campaign directory."""
+    """Read ``runs.jsonl`` from a campaign directory."""
     path = Path(path)
     runs = path / RUNS_FILE
     if not runs.is_file():
@@ -85,13 +83,7 @@ def load_campaign(path: str | Path) -> Campaign:
             latest[str(row.get("id", f"#{k}"))] = row
     rows = [r for r in latest.values() if is_ok(r)]
     failed = [r for r in latest.values() if not is_ok(r)]
-    summary = None
-    if (path / SUMMARY_FILE).is_file():
-        try:
-            summary = json.loads((path / SUMMARY_FILE).read_text(encoding="utf-8"))
-        except ValueError:
-            summary = None
-    return Campaign(path=path, rows=rows, failed=failed, bad_lines=bad, summary=summary)
+    return Campaign(path=path, rows=rows, failed=failed, bad_lines=bad)
 
 
 def flatten(row: dict) -> dict:

@@ -65,9 +65,9 @@ def _list() -> int:
 def _stats(directory: Path) -> int:
     summary = compute_directory(directory)
     s_path, r_path = write_outputs(directory, summary)
-    r = summary["runs"]
-    print(f"{directory}: {r['ok']} ok, {r['failed']} failed"
-          + ("" if r.get("missing") is None else f", {r['missing']} missing") + f"; wrote {s_path} and {r_path}")
+    r = summary.runs
+    print(f"{directory}: {r.ok} ok, {r.failed} failed"
+          + ("" if r.missing is None else f", {r.missing} missing") + f"; wrote {s_path} and {r_path}")
     return 0
 
 
@@ -114,4 +114,4 @@ def run(args) -> int:
     if outcome.interrupted:
         print("navbank campaign: interrupted; run the same command again to resume", file=sys.stderr)
         return 130
-    return 1 if summary["runs"]["failed"] else 0
+    return 1 if summary.runs.failed else 0

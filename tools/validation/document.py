@@ -375,15 +375,15 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
                 continue
             if res[0].true_class == "none":
                 b = binomial(sum(a.declared for a in res), len(res))
-                cells.append(f"FA {b['k']}/{b['n']} [{100 * b['ci'][0]:.0f}–{100 * b['ci'][1]:.0f} %]")
+                cells.append(f"FA {b.k}/{b.n} [{100 * b.ci[0]:.0f}–{100 * b.ci[1]:.0f} %]")
                 continue
             det = [a for a in res if a.detected]
             b = binomial(len(det), len(res))
             lat = latency_stats([a.latency_s for a in det if a.latency_s is not None])
             correct = sum(1 for a in det if a.first_diagnosis == a.true_class)
-            txt = f"{b['k']}/{b['n']} [{100 * b['ci'][0]:.0f}–{100 * b['ci'][1]:.0f} %]"
+            txt = f"{b.k}/{b.n} [{100 * b.ci[0]:.0f}–{100 * b.ci[1]:.0f} %]"
             if lat:
-                txt += f", {lat['median_h']:.0f} h (p90 {lat['p90_h']:.0f} h)"
+                txt += f", {lat.median_h:.0f} h (p90 {lat.p90_h:.0f} h)"
             if det:
                 txt += f", class {correct}/{len(det)}"
             pre = sum(1 for a in res if a.false_alarm)
