@@ -50,7 +50,7 @@ def test_local_and_dask_give_the_same_runs(tmp_path, short_scenario):
     for rid in results["local"]:
         assert results["local"][rid] == results["dask"][rid], rid
     # the runs carry what the statistics need: the optical bias moves chi2's weight to the radio filter
-    s = compute_directory(tmp_path / "local")
+    s = compute_directory(tmp_path / "local").to_json()
     (t,) = [t for t in s["weight_tables"] if t["network"] == "chi2"]
     after = {r["case"]: r["after_onset"] for r in t["rows"] if r["after_onset"]}
     assert after["optical-bias-large"]["radio"] > 0.5 > after["optical-bias-small"]["radio"]

@@ -10,6 +10,7 @@ import pytest
 from fsw.fdir.config import DetectorConfig, config_to_yaml
 from fsw.interface.yamlconfig import ConfigError
 from tools.campaign.plan import expand
+from tools.campaign.plan_file import PlanFile
 from tools.campaign.report import render
 from tools.campaign.spec import load_campaign, load_campaign_text
 from tools.campaign.stats import compute
@@ -89,7 +90,7 @@ def test_monitored_networks_join_the_gating_list_and_the_task(tmp_path, short_sc
                                         "monitors": ["chi2", "chi2-two-sided", "magill"]}
         assert {n: c["network"] for n, c in t.monitors.items()} == {n: n for n in t.monitors}
         assert t.monitors["magill"]["threshold"] == 8.0
-    assert plan.to_json()["cells"][0]["detector"]["monitors"] == ["chi2", "chi2-two-sided", "magill"]
+    assert plan.plan_file().to_json()["cells"][0]["detector"]["monitors"] == ["chi2", "chi2-two-sided", "magill"]
     # monitors change the summary, not the flight: the same cell without them is another run id
     bare = expand(load_campaign(str(_write(tmp_path, short_scenario, CAMPAIGN.replace(
         "        monitors: {chi2: det-chi2.yaml, chi2-two-sided: det-chi2-two-sided.yaml, magill: det-magill.yaml}\n",
@@ -192,7 +193,7 @@ def test_every_detector_is_its_own_variant_in_the_statistics():
         "runs": [{"id": i, "cell": f"s / {f} / v", "seed": 1} for i, f in
                  (("n1", "none"), ("n2", "none"), ("o1", "ob"), ("o2", "ob"), ("o3", "ob"), ("o4", "ob"),
                   ("o5", "ob"))]}
-    stats = compute([ResultRow.from_json(r) for r in _mrows()], plan)
+    stats = compute([ResultRow.from_json(r) for r in _mrows()], PlanFile.from_json(plan))
     s = stats.to_json()
     cells = {(c["fault"], c["variant"]): c for c in s["cells"]}
     assert list(cells) == [("none", "v / chi2"), ("none", "v / magill"), ("ob", "v / chi2"), ("ob", "v / magill")]

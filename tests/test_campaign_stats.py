@@ -9,6 +9,7 @@ from scipy import optimize, stats
 
 from campaign_rows import complete_row
 from ground.report.row_types import ResultRow
+from tools.campaign.plan_file import PlanFile
 from tools.campaign.report import render
 from tools.campaign.stats import binomial, compute, latency_stats, poisson_rate
 from tools.cli import main
@@ -156,7 +157,7 @@ def test_plan_gives_missing_runs_and_ignores_stale_rows():
     rows = _rows()
     plan = {"name": "p", "cells": [{"scenario": "s", "fault": "none", "variant": "v", "key": "s / none / v"}],
             "runs": [{"id": f"n{i}", "cell": "s / none / v", "seed": i} for i in range(1, 7)]}
-    s = compute(_decoded(rows), plan).to_json()
+    s = compute(_decoded(rows), PlanFile.from_json(plan)).to_json()
     assert [c["fault"] for c in s["cells"]] == ["none"]
     assert s["runs"]["planned"] == 6 and s["runs"]["missing"] == 2 and s["runs"]["stale_rows"] == 6
     assert _cell(s, "none")["runs"]["missing"] == 2
@@ -178,7 +179,7 @@ def test_planned_cell_without_rows_keeps_its_fault_class():
     plan = {"name": "p", "cells": [{"scenario": "s", "fault": "big", "variant": "v", "key": "s / big / v",
                                     "fault_class": OPT, "detector": {"network": "magill", "calibrated": True}}],
             "runs": [{"id": "x1", "cell": "s / big / v", "seed": 1}]}
-    computed = compute([], plan)
+    computed = compute([], PlanFile.from_json(plan))
     (c,) = computed.to_json()["cells"]
     assert c["fault_class"] == OPT and c["detector"]["network"] == "magill"
     assert c["detection"]["n"] == 0 and c["detection"]["rate"] is None and c["runs"]["missing"] == 1

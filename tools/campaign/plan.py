@@ -27,6 +27,7 @@ from fsw.interface.typed import DecodeError
 from fsw.interface.yamlconfig import ConfigError, load_file
 from sim.faults.presets import preset
 from ground.report.row_types import Cell
+from tools.campaign.plan_file import PlanFile, PlannedCell, PlannedRun
 from tools.campaign.spec import FaultCase, LoadedCampaign, NetworkVariant
 from tools.campaign.task import RunTask
 from tools.scenario import ScenarioConfig, builtin_names, load_scenario
@@ -39,18 +40,16 @@ class CampaignPlan:
     tasks: list[RunTask]
     cells: list[Cell] = field(default_factory=list)
 
-    def _cell_facts(self, cell: Cell) -> dict:
+    def _planned_cell(self, cell: Cell) -> PlannedCell:
         t = next((t for t in self.tasks if t.cell == cell), None)
-        if t is None:
-            return {}
-        return {"fault_class": t.fault_class, "detector": t.detector.to_json()}
+        return PlannedCell(scenario=cell.scenario, fault=cell.fault, variant=cell.variant, key=cell.key,
+                           fault_class=t.fault_class if t else None, detector=t.detector if t else None)
 
-    def to_json(self) -> dict:
-        return {
-            "name": self.name, "description": self.description,
-            "cells": [c.to_json() | {"key": c.key} | self._cell_facts(c) for c in self.cells],
-            "runs": [{"id": t.id, "cell": t.cell.key, "seed": t.seed} for t in self.tasks],
-        }
+    def plan_file(self) -> PlanFile:
+        """What ``plan.json`` holds."""
+        return PlanFile(name=self.name, description=self.description,
+                        cells=tuple(self._planned_cell(c) for c in self.cells),
+                        runs=tuple(PlannedRun(id=t.id, cell=t.cell.key, seed=t.seed) for t in self.tasks))
 
 
 def run_id(scenario_data: dict, seed: int, monitors: dict | None = None) -> str:

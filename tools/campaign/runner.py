@@ -101,7 +101,7 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
     store = RunStore(out_dir)
     out.repaired_bytes = store.open()
     try:
-        write_json_atomic(Path(out_dir) / PLAN, plan.to_json())
+        write_json_atomic(Path(out_dir) / PLAN, plan.plan_file().to_json())
         latest = store.read().latest()
         tasks = select_tasks(plan, latest, rerun_failed)
         out.skipped = len(plan.tasks) - len(tasks)

@@ -38,6 +38,7 @@ the detector network) cannot declare anything: their detection statistics are re
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -50,6 +51,7 @@ from fsw.interface.messages import ANOMALY_CLASSES
 from ground.report.intervals import clopper_pearson
 from ground.report.row_types import DetectorFacts, ResultRow
 from ground.report.summary_types import ErrorRecord
+from tools.campaign.plan_file import PlanFile
 from tools.campaign.stats_records import (Binomial, CampaignRuns, CampaignStats, CellBudget, CellDetector, CellRuns,
                                           CellStats, Confusion, FailedRun, FalseAlarms, Latency, NetworkWeights,
                                           PoissonRate, Spread, WeightTable, WeightTableRow)
@@ -288,10 +290,10 @@ def _weight_tables(cells: list[CellStats]) -> list[WeightTable]:
             for (s, v, n) in filters]
 
 
-def compute(rows: list[ResultRow], plan: dict | None = None, *, level: float = LEVEL, bad_lines: int = 0,
+def compute(rows: list[ResultRow], plan: PlanFile | None = None, *, level: float = LEVEL, bad_lines: int = 0,
             torn_tail: bool = False) -> CampaignStats:
     """Statistics of a campaign from its rows (all of them; the latest per id counts) and its
-    ``plan.json`` data."""
+    plan (``plan.json``)."""
     latest: dict[str, ResultRow] = {}
     for r in rows:
         latest[r.id] = r
@@ -299,14 +301,15 @@ def compute(rows: list[ResultRow], plan: dict | None = None, *, level: float = L
     cell_order: list[str] = []
     cell_info: dict[str, dict] = {}
     plan_ids: set[str] | None = None
-    if plan:
-        plan_ids = {r["id"] for r in plan.get("runs", [])}
-        for c in plan.get("cells", []):
-            cell_order.append(c["key"])
-            cell_info[c["key"]] = {k: c[k] for k in ("scenario", "fault", "variant", "fault_class", "detector") if k in c}
-            cell_info[c["key"]]["detector"] = dict(cell_info[c["key"]].get("detector") or {})
-        for r in plan.get("runs", []):
-            planned_by_cell[r["cell"]] += 1
+    if plan is not None:
+        plan_ids = {r.id for r in plan.runs}
+        for c in plan.cells:
+            cell_order.append(c.key)
+            facts = c.to_json()
+            cell_info[c.key] = {k: facts[k] for k in ("scenario", "fault", "variant", "fault_class") if k in facts}
+            cell_info[c.key]["detector"] = c.detector.to_json() if c.detector is not None else {}
+        for r in plan.runs:
+            planned_by_cell[r.cell] += 1
     rows_by_cell: dict[str, list[ResultRow]] = defaultdict(list)
     for r in latest.values():
         if plan_ids is not None and r.id not in plan_ids:
@@ -319,10 +322,10 @@ def compute(rows: list[ResultRow], plan: dict | None = None, *, level: float = L
     counted = [r for rs in rows_by_cell.values() for r in rs]
     cell_order = _expand_cells(cell_order, cell_info, rows_by_cell, planned_by_cell)
     cells = [_cell_stats(k, dict(cell_info[k]), sorted(rows_by_cell.get(k, []), key=lambda r: r.seed),
-                         planned_by_cell.get(k) if plan else None, level) for k in cell_order]
+                         planned_by_cell.get(k) if plan is not None else None, level) for k in cell_order]
     return CampaignStats(
-        campaign=(plan or {}).get("name") or (counted[0].campaign if counted else None),
-        description=(plan or {}).get("description", ""),
+        campaign=(plan.name if plan is not None else None) or (counted[0].campaign if counted else None),
+        description=plan.description if plan is not None else "",
         generated_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         confidence_level=level,
         runs=CampaignRuns(
@@ -342,13 +345,11 @@ def compute(rows: list[ResultRow], plan: dict | None = None, *, level: float = L
 
 def compute_directory(directory: str | Path, level: float = LEVEL) -> CampaignStats:
     """Statistics of the campaign in ``directory`` (its runs.jsonl and, if present, plan.json)."""
-    import json
-
     d = Path(directory)
     if not (d / RUNS).exists():
         raise FileNotFoundError(f"{d / RUNS}: no such file (not a campaign directory?)")
     read = read_rows(d / RUNS)
-    plan = json.loads((d / PLAN).read_text()) if (d / PLAN).exists() else None
+    plan = PlanFile.from_json(json.loads((d / PLAN).read_text())) if (d / PLAN).exists() else None
     return compute(read.rows, plan, level=level, bad_lines=read.bad_lines, torn_tail=read.torn_tail)
 
 
