@@ -55,13 +55,13 @@ def test_calibrate_writes_detector_and_scenario(tmp_path, short_scenario, monkey
     for r in rows:
         stored = load_weights(tmp_path / "runs", r.id, "chi2")
         chi2 = r.summary.gating["chi2"]
-        assert stored["weights"].shape == (chi2.updates, 3) and chi2.updates >= 5
-        np.testing.assert_allclose(stored["weights"].mean(axis=0), list(chi2.mean_weights.values()), rtol=1e-12)
-        np.testing.assert_array_equal(stored["weights"][-1], list(chi2.final_weights.values()))
-        assert np.all(np.diff(stored["t_s"]) > 0) and list(stored["batch"]) == list(range(chi2.updates))
+        assert stored.weights.shape == (chi2.updates, 3) and chi2.updates >= 5
+        np.testing.assert_allclose(stored.weights.mean(axis=0), list(chi2.mean_weights.values()), rtol=1e-12)
+        np.testing.assert_array_equal(stored.weights[-1], list(chi2.final_weights.values()))
+        assert np.all(np.diff(stored.t_s) > 0) and list(stored.batch) == list(range(chi2.updates))
 
     # nominal weights sit near 1/N and the nominal band was learned from them
-    pooled = np.concatenate([load_weights(tmp_path / "runs", r.id, "chi2")["weights"] for r in rows])
+    pooled = np.concatenate([load_weights(tmp_path / "runs", r.id, "chi2").weights for r in rows])
     np.testing.assert_allclose(det.nominal_mean, pooled.mean(axis=0), rtol=1e-12)
 
     # again: the runs are reused, nothing is flown, the same calibration comes out
@@ -101,7 +101,7 @@ def test_calibrate_several_networks_to_a_directory(tmp_path, short_scenario, mon
     for net in ("chi2", "magill"):
         det = load_file(DetectorConfig, tmp_path / "dets" / f"detector-{net}.yaml")
         assert det.network == net
-        pooled = np.concatenate([load_weights(tmp_path / "runs", r.id, net)["weights"] for r in rows])
+        pooled = np.concatenate([load_weights(tmp_path / "runs", r.id, net).weights for r in rows])
         np.testing.assert_allclose(det.nominal_mean, pooled.mean(axis=0), rtol=1e-12)
         assert f"--network {net}" in (tmp_path / "dets" / f"detector-{net}.yaml").read_text()
     assert main(["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--network", "magill",

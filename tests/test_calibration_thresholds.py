@@ -6,7 +6,6 @@ import dataclasses
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from fsw.fdir.config import config_from_yaml, config_to_yaml
 from fsw.fdir.detector import AnomalyDetector

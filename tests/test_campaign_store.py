@@ -7,6 +7,7 @@ import numpy as np
 
 from campaign_rows import complete_row
 from ground.report.row_types import ResultRow
+from ground.report.run_weights import RunWeights
 from tools.campaign.store import RunStore, encode_row, load_weights, read_rows, repair
 
 # a row as campaigns have always written it: runs.jsonl of existing campaign directories
@@ -108,9 +109,9 @@ def test_unreadable_middle_line_is_counted_and_latest_row_wins(tmp_path):
 def test_weights_round_trip(tmp_path):
     with RunStore(tmp_path) as store:
         w = np.random.default_rng(1).random((7, 3))
-        store.save_weights("abc", {"chi2": {"filters": ["radio", "optical", "fused"], "t_s": np.arange(7.0),
-                                            "batch": np.arange(7), "weights": w}})
+        store.save_weights("abc", {"chi2": RunWeights(filters=("radio", "optical", "fused"), t_s=np.arange(7.0),
+                                                      batch=np.arange(7), weights=w)})
     got = load_weights(tmp_path, "abc", "chi2")
-    assert list(got["filters"]) == ["radio", "optical", "fused"]
-    np.testing.assert_array_equal(got["weights"], w)
+    assert got.filters == ("radio", "optical", "fused") and got.group_names == ()
+    np.testing.assert_array_equal(got.weights, w)
     assert not list((tmp_path / "weights").rglob(".*tmp*"))

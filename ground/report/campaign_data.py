@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ground.report.intervals import clopper_pearson
+from ground.report.run_weights import RunWeights
 from fsw.interface.messages import ANOMALY_CLASSES
 
 RUNS_FILE = "runs.jsonl"
@@ -386,15 +387,14 @@ def kept_networks(camp: Campaign) -> list[str]:
     return sorted(p.name for p in wdir.iterdir() if p.is_dir() and any(p.glob("*.npz")))
 
 
-def load_history(camp: Campaign, network: str, run_id: str) -> dict[str, np.ndarray] | None:
+def load_history(camp: Campaign, network: str, run_id: str) -> RunWeights | None:
     """One run's stored weight history of ``network`` (None when absent or unreadable)."""
     path = camp.path / WEIGHTS_DIR / network / f"{run_id}.npz"
     if not path.is_file():
         return None
     try:
-        with np.load(path, allow_pickle=False) as data:
-            return {k: data[k] for k in data.files}
-    except (OSError, ValueError):
+        return RunWeights.load(path)
+    except (OSError, ValueError, KeyError):  # not a history (another writer's file, a cut copy)
         return None
 
 
@@ -437,20 +437,20 @@ def weight_history(camp: Campaign, network: str, scenario: str, variant: str = "
     runs: dict[str, list[tuple[np.ndarray, np.ndarray, list[str]]]] = {}
     onsets: dict[str, list[float]] = {}
     histories = [(r, h) for r in rows if (h := load_history(camp, network, str(r.get("id")))) is not None
-                 and h["weights"].size > 0]
+                 and h.weights.size > 0]
     if not histories:
         return None
     # runs of one scenario share its start epoch: a row that does not record it borrows another's
     t0_common = next((t for r, _ in histories if (t := start_epoch(r)) is not None), None)
     origin = "scenario start"
     if t0_common is None:
-        t0_common = min(float(h["t_s"][0]) for _, h in histories)
+        t0_common = min(float(h.t_s[0]) for _, h in histories)
         origin = "first gating batch"
     for r, h in histories:
         t0 = start_epoch(r)
         t0 = t0 if t0 is not None else t0_common
         case = case_of(r)
-        runs.setdefault(case, []).append(((h["t_s"] - t0) / DAY_S, h["weights"], [str(f) for f in h["filters"]]))
+        runs.setdefault(case, []).append(((h.t_s - t0) / DAY_S, h.weights, list(h.filters)))
         od = (r.get("anomaly") or {}).get("onset_true_day")
         if od is not None:
             onsets.setdefault(case, []).append(float(od))

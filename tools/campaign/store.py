@@ -23,6 +23,7 @@ import numpy as np
 
 from fsw.interface.typed import DecodeError
 from ground.report.row_types import ResultRow
+from ground.report.run_weights import RunWeights
 
 RUNS = "runs.jsonl"
 PLAN = "plan.json"
@@ -140,18 +141,15 @@ class RunStore:
             view = view[n:]
         os.fsync(self._fd)
 
-    def save_weights(self, run_id: str, histories: dict[str, dict[str, Any]]) -> list[Path]:
+    def save_weights(self, run_id: str, histories: dict[str, RunWeights]) -> list[Path]:
         """Store each network's weight history as ``weights/<network>/<run_id>.npz`` (atomic)."""
         paths = []
-        for network, arrays in histories.items():
+        for network, history in histories.items():
             wdir = self.dir / WEIGHTS / network
             wdir.mkdir(parents=True, exist_ok=True)
             final = wdir / f"{run_id}.npz"
             tmp = wdir / f".{run_id}.tmp.npz"
-            np.savez(tmp, filters=np.array(arrays["filters"], dtype=str), t_s=arrays["t_s"],
-                     batch=arrays["batch"], weights=arrays["weights"], groups=arrays.get("groups", np.zeros((0, 0))),
-                     group_names=np.array(arrays.get("group_names", []), dtype=str),
-                     statistic=arrays.get("statistic", np.zeros((0, 0))))
+            history.save(tmp)
             with open(tmp, "rb") as fh:
                 os.fsync(fh.fileno())
             os.replace(tmp, final)
@@ -174,10 +172,9 @@ class RunStore:
         self.close()
 
 
-def load_weights(directory: str | Path, run_id: str, network: str) -> dict[str, np.ndarray]:
+def load_weights(directory: str | Path, run_id: str, network: str) -> RunWeights:
     """One network's stored weight history of one run (see :meth:`RunStore.save_weights`)."""
-    with np.load(Path(directory) / WEIGHTS / network / f"{run_id}.npz", allow_pickle=False) as data:
-        return {k: data[k] for k in data.files}
+    return RunWeights.load(Path(directory) / WEIGHTS / network / f"{run_id}.npz")
 
 
 def has_weights(directory: str | Path, run_id: str, network: str) -> bool:

@@ -36,6 +36,7 @@ from fsw.fdir.families import FilterFamily
 from fsw.interface import messages as m, topics, typed
 from ground.report.row_types import ResultRow
 from ground.report.run_facts import anomaly_summary
+from ground.report.run_weights import RunWeights
 from ground.report.summary_types import AnomalyBlock, ErrorRecord, MonitorBlock
 from tools.campaign.task import RunTask
 from tools.inprocess import RunResult, run_in_process
@@ -44,26 +45,23 @@ from tools.scenario import ScenarioConfig
 TRACEBACK_LINES = 12
 
 
-def weight_history(result: RunResult, network: str) -> dict[str, Any]:
-    """The FilterWeights history of ``network``: filter names, epochs, batch indices, weights,
-    per-filter statistics and (hierarchical networks) the top-level weight of each bank."""
+def weight_history(result: RunResult, network: str) -> RunWeights:
+    """The FilterWeights history of ``network`` in the run."""
     msgs = result.topic(f"{topics.FSW_WEIGHTS}/{network}")
     if not msgs:
-        return {"filters": [], "t_s": np.zeros(0), "batch": np.zeros(0, dtype=np.int64),
-                "weights": np.zeros((0, 0)), "statistic": np.zeros((0, 0)), "group_names": [],
-                "groups": np.zeros((0, 0))}
-    group_names = list(msgs[-1].groups)
+        return RunWeights.empty()
+    group_names = tuple(msgs[-1].groups)
     stat_len = len(msgs[-1].statistic)
-    return {
-        "filters": list(msgs[-1].filters),
-        "t_s": np.array([m.t_s for m in msgs], dtype=float),
-        "batch": np.array([m.batch for m in msgs], dtype=np.int64),
-        "weights": np.array([m.weights for m in msgs], dtype=float),
-        "statistic": np.array([m.statistic if len(m.statistic) == stat_len else (np.nan,) * stat_len
-                               for m in msgs], dtype=float),
-        "group_names": group_names,
-        "groups": np.array([[m.groups.get(g, np.nan) for g in group_names] for m in msgs], dtype=float),
-    }
+    return RunWeights(
+        filters=tuple(msgs[-1].filters),
+        t_s=np.array([m.t_s for m in msgs], dtype=float),
+        batch=np.array([m.batch for m in msgs], dtype=np.int64),
+        weights=np.array([m.weights for m in msgs], dtype=float),
+        statistic=np.array([m.statistic if len(m.statistic) == stat_len else (np.nan,) * stat_len
+                            for m in msgs], dtype=float),
+        group_names=group_names,
+        groups=np.array([[m.groups.get(g, np.nan) for g in group_names] for m in msgs], dtype=float),
+    )
 
 
 @dataclass(frozen=True)
@@ -161,7 +159,7 @@ class RunOutcome:
     """What a worker hands back: the row, and the weight histories the task asked for."""
 
     row: ResultRow
-    weights: dict[str, dict[str, Any]] | None = None
+    weights: dict[str, RunWeights] | None = None
 
 
 def _monitor_blocks(result: RunResult, monitors: dict[str, dict]) -> dict[str, MonitorBlock]:

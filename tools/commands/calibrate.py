@@ -111,14 +111,14 @@ def collect_histories(runs_dir: Path, ids: list[str], network: str) -> tuple[lis
         if not has_weights(runs_dir, rid, network):
             continue
         data = load_weights(runs_dir, rid, network)
-        filters = tuple(str(s) for s in data["filters"])
-        if data["weights"].size == 0:
+        filters = data.filters
+        if data.weights.size == 0:
             continue  # the network published nothing (a run shorter than one batch)
         if names is None:
             names = filters
         elif filters != names:
             raise CalibrationError(f"run {rid}: filters {filters} differ from {names}")
-        histories.append(np.asarray(data["weights"], dtype=float))
+        histories.append(np.asarray(data.weights, dtype=float))
         used.append(rid)
     return histories, names or (), used
 
