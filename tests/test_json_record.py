@@ -28,7 +28,9 @@ def test_keyword_keys_and_omitted_fields():
 
 
 def test_unknown_and_wrong_keys_are_refused():
-    with pytest.raises(DecodeError, match="verdict_class"):
+    with pytest.raises(DecodeError, match="^class: expected a value"):
         Verdict.from_json({"score": 1.0})
+    with pytest.raises(DecodeError, match="^class: expected a string"):
+        Verdict.from_json({"class": 3})
     with pytest.raises(DecodeError, match="extra"):
         Verdict.from_json({"class": "none", "extra": 1})

@@ -26,7 +26,20 @@ class JsonRecord:
         if isinstance(data, dict) and cls._json_keys:
             field_of = {key: name for name, key in cls._json_keys.items()}
             data = {field_of.get(k, k): v for k, v in data.items()}
-        return typed.decode(cls, data, path)
+        try:
+            return typed.decode(cls, data, path)
+        except typed.DecodeError as exc:
+            raise cls._in_json_terms(exc, path) from None
+
+    @classmethod
+    def _in_json_terms(cls, exc: typed.DecodeError, path: str) -> typed.DecodeError:
+        # an error names the file's key (``class``), not the field that holds it
+        for name, key in cls._json_keys.items():
+            at = f"{path}.{name}" if path else name
+            if exc.path == at or exc.path.startswith((at + ".", at + "[")):
+                json_at = f"{path}.{key}" if path else key
+                return typed.DecodeError(json_at + exc.path[len(at):], exc.expected, exc.got)
+        return exc
 
     def _typed_encode(self, drop_defaults: bool) -> dict:
         out = {}
