@@ -11,23 +11,16 @@ from tools.cli import main
 from tools.commands.calibrate import nominal_campaign
 from tools.scenario import ScenarioConfig, load_scenario
 
-SCENARIO = """\
-name: short
-sim:
-  trajectory: {span_days: 2.0}
-  faults:
-    - {type: optical-bias, onset_day: 1.0, sample_px: 2.0, line_px: 3.0}
-fsw:
-  budget: {mode: work-units}
-  gating:
-    - {network: magill}
-  detector: {network: magill}
-"""
+
+def _scenario(short_scenario, *more_gating: str) -> str:
+    # a fault the nominal calibration runs must drop, and a Magill detector they must not keep
+    return short_scenario(faults=("{type: optical-bias, onset_day: 1.0, sample_px: 2.0, line_px: 3.0}",),
+                          gating=("{network: magill}", *more_gating), detector="magill")
 
 
-def test_nominal_plan_has_no_fault_no_detector_and_the_network(tmp_path, monkeypatch):
+def test_nominal_plan_has_no_fault_no_detector_and_the_network(tmp_path, short_scenario, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+    (tmp_path / "short.yaml").write_text(_scenario(short_scenario))
     plan = expand(nominal_campaign("short.yaml", "chi2", 4, 1001), extract_weights="chi2")
     assert [t.seed for t in plan.tasks] == [1001, 1002, 1003, 1004]
     for t in plan.tasks:
@@ -35,14 +28,13 @@ def test_nominal_plan_has_no_fault_no_detector_and_the_network(tmp_path, monkeyp
         assert t.scenario["fsw"]["detector"]["calibration"] is None
         assert t.scenario["fsw"]["detector"]["network"] == "chi2"
         assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["magill", "chi2"]
-        assert t.payload()["extract_weights"] == ["chi2"]
+        assert t.extract_weights == ("chi2",)
 
 
 @pytest.mark.slow
-def test_calibrate_writes_detector_and_scenario(tmp_path, monkeypatch, capsys):
+def test_calibrate_writes_detector_and_scenario(tmp_path, short_scenario, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "short.yaml").write_text(SCENARIO.replace("    - {network: magill}", "    - {network: magill}\n"
-                                                          "    - {network: chi2, batch_size: 200}"))
+    (tmp_path / "short.yaml").write_text(_scenario(short_scenario, "{network: chi2, batch_size: 200}"))
     args = ["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--seeds", "10", "--target-fa", "0.1",
             "--workers", "2", "--out", "det.yaml", "--write-scenario", "cal.yaml", "--runs-dir", "runs", "--quiet"]
     assert main(args) == 0
@@ -59,17 +51,17 @@ def test_calibrate_writes_detector_and_scenario(tmp_path, monkeypatch, capsys):
     # the stored history is the FSW's chi2 weight telemetry of that run: it gives back the summary's
     # batch count, full-arc mean and final weights, which were computed from the run's messages
     rows = read_rows(tmp_path / "runs" / "runs.jsonl").rows
-    assert len(rows) == 10 and all(r["status"] == "ok" for r in rows)
+    assert len(rows) == 10 and all(r.status == "ok" for r in rows)
     for r in rows:
-        stored = load_weights(tmp_path / "runs", r["id"], "chi2")
-        chi2 = r["summary"]["gating"]["chi2"]
-        assert stored["weights"].shape == (chi2["updates"], 3) and chi2["updates"] >= 5
-        np.testing.assert_allclose(stored["weights"].mean(axis=0), list(chi2["mean_weights"].values()), rtol=1e-12)
-        np.testing.assert_array_equal(stored["weights"][-1], list(chi2["final_weights"].values()))
-        assert np.all(np.diff(stored["t_s"]) > 0) and list(stored["batch"]) == list(range(chi2["updates"]))
+        stored = load_weights(tmp_path / "runs", r.id, "chi2")
+        chi2 = r.summary.gating["chi2"]
+        assert stored.weights.shape == (chi2.updates, 3) and chi2.updates >= 5
+        np.testing.assert_allclose(stored.weights.mean(axis=0), list(chi2.mean_weights.values()), rtol=1e-12)
+        np.testing.assert_array_equal(stored.weights[-1], list(chi2.final_weights.values()))
+        assert np.all(np.diff(stored.t_s) > 0) and list(stored.batch) == list(range(chi2.updates))
 
     # nominal weights sit near 1/N and the nominal band was learned from them
-    pooled = np.concatenate([load_weights(tmp_path / "runs", r["id"], "chi2")["weights"] for r in rows])
+    pooled = np.concatenate([load_weights(tmp_path / "runs", r.id, "chi2").weights for r in rows])
     np.testing.assert_allclose(det.nominal_mean, pooled.mean(axis=0), rtol=1e-12)
 
     # again: the runs are reused, nothing is flown, the same calibration comes out
@@ -85,21 +77,20 @@ def test_calibrate_rejects_bad_arguments(capsys):
     assert len(capsys.readouterr().err.strip().splitlines()) == 3
 
 
-def test_several_networks_share_one_set_of_nominal_runs(tmp_path, monkeypatch):
+def test_several_networks_share_one_set_of_nominal_runs(tmp_path, short_scenario, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+    (tmp_path / "short.yaml").write_text(_scenario(short_scenario))
     plan = expand(nominal_campaign("short.yaml", ["chi2", "chi2-two-sided", "magill"], 2, 1001))
     for t in plan.tasks:
         assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["magill", "chi2", "chi2-two-sided"]
-        assert t.payload()["extract_weights"] == ["chi2", "chi2-two-sided", "magill"]
+        assert t.extract_weights == ("chi2", "chi2-two-sided", "magill")
         assert t.scenario["fsw"]["detector"]["calibration"] is None
 
 
 @pytest.mark.slow
-def test_calibrate_several_networks_to_a_directory(tmp_path, monkeypatch, capsys):
+def test_calibrate_several_networks_to_a_directory(tmp_path, short_scenario, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "short.yaml").write_text(SCENARIO.replace("    - {network: magill}", "    - {network: magill}\n"
-                                                          "    - {network: chi2, batch_size: 200}"))
+    (tmp_path / "short.yaml").write_text(_scenario(short_scenario, "{network: chi2, batch_size: 200}"))
     args = ["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--network", "magill", "--seeds", "4",
             "--target-fa", "0.2", "--workers", "2", "--out-dir", "dets", "--runs-dir", "runs", "--quiet"]
     assert main(args) == 0
@@ -110,7 +101,7 @@ def test_calibrate_several_networks_to_a_directory(tmp_path, monkeypatch, capsys
     for net in ("chi2", "magill"):
         det = load_file(DetectorConfig, tmp_path / "dets" / f"detector-{net}.yaml")
         assert det.network == net
-        pooled = np.concatenate([load_weights(tmp_path / "runs", r["id"], net)["weights"] for r in rows])
+        pooled = np.concatenate([load_weights(tmp_path / "runs", r.id, net).weights for r in rows])
         np.testing.assert_allclose(det.nominal_mean, pooled.mean(axis=0), rtol=1e-12)
         assert f"--network {net}" in (tmp_path / "dets" / f"detector-{net}.yaml").read_text()
     assert main(["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--network", "magill",

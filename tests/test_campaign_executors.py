@@ -1,5 +1,6 @@
 """The same campaign on the local spawn pool and on a dask LocalCluster gives the same runs."""
 
+import dataclasses
 import io
 import json
 
@@ -10,18 +11,8 @@ from tools.campaign.plan import expand
 from tools.campaign.runner import run_campaign
 from tools.campaign.spec import load_campaign
 from tools.campaign.stats import compute_directory
+from ground.report.row_types import ResultRow
 from tools.campaign.store import read_rows
-
-SCENARIO = """\
-name: short
-sim:
-  trajectory: {span_days: 2.5}
-fsw:
-  budget: {mode: work-units}
-  gating:
-    - {network: chi2, batch_size: 200}
-    - {network: magill}
-"""
 
 CAMPAIGN = """\
 name: optical-short
@@ -33,15 +24,13 @@ matrix:
 """
 
 
-def _comparable(row: dict) -> dict:
-    s = dict(row["summary"])
-    s.pop("wall_time_s")
-    return {"status": row["status"], "seed": row["seed"], "cell": row["cell"], "summary": s}
+def _comparable(row: ResultRow) -> tuple:
+    return row.status, row.seed, row.cell, dataclasses.replace(row.summary, wall_time_s=None)
 
 
 @pytest.mark.slow
-def test_local_and_dask_give_the_same_runs(tmp_path):
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+def test_local_and_dask_give_the_same_runs(tmp_path, short_scenario):
+    (tmp_path / "short.yaml").write_text(short_scenario(2.5))
     (tmp_path / "c.yaml").write_text(CAMPAIGN)
     plan = expand(load_campaign(str(tmp_path / "c.yaml")))
     assert len(plan.tasks) == 12
@@ -55,13 +44,13 @@ def test_local_and_dask_give_the_same_runs(tmp_path):
         assert "12/12" in stream.getvalue() and "ETA" in stream.getvalue()
         rows = read_rows(out / "runs.jsonl")
         assert len(rows.rows) == 12 and not rows.torn_tail
-        assert {r["executor"] for r in rows.rows} == {name}
-        results[name] = {r["id"]: _comparable(r) for r in rows.rows}
+        assert {r.executor for r in rows.rows} == {name}
+        results[name] = {r.id: _comparable(r) for r in rows.rows}
     assert set(results["local"]) == {t.id for t in plan.tasks} == set(results["dask"])
     for rid in results["local"]:
         assert results["local"][rid] == results["dask"][rid], rid
     # the runs carry what the statistics need: the optical bias moves chi2's weight to the radio filter
-    s = compute_directory(tmp_path / "local")
+    s = compute_directory(tmp_path / "local").to_json()
     (t,) = [t for t in s["weight_tables"] if t["network"] == "chi2"]
     after = {r["case"]: r["after_onset"] for r in t["rows"] if r["after_onset"]}
     assert after["optical-bias-large"]["radio"] > 0.5 > after["optical-bias-small"]["radio"]

@@ -11,24 +11,17 @@ from fsw.fdir.config import DetectorConfig, config_to_yaml
 from fsw.interface import messages as m
 from fsw.interface.yamlconfig import ConfigError
 from tools.campaign.plan import expand
+from tools.campaign.plan_file import PlanFile
 from tools.campaign.report import render
 from tools.campaign.spec import load_campaign, load_campaign_text
 from tools.campaign.stats import compute
 from tools.campaign.worker import execute
+from campaign_rows import complete_row
+from ground.report.row_types import ResultRow
 from ground.report.run_facts import anomaly_summary
 
 FILTERS = ("radio", "optical", "fused")
 DAY = 86400.0
-
-SCENARIO = """\
-name: short
-sim:
-  trajectory: {span_days: 2.0}
-fsw:
-  budget: {mode: work-units}
-  gating:
-    - {network: chi2, batch_size: 100}
-"""
 
 CAMPAIGN = """\
 name: mon
@@ -53,8 +46,8 @@ def _calibration(network: str, threshold: float = 8.0) -> DetectorConfig:
                           persistence_n=3, hold=3)
 
 
-def _write(tmp_path, campaign: str = CAMPAIGN):
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+def _write(tmp_path, short_scenario, campaign: str = CAMPAIGN):
+    (tmp_path / "short.yaml").write_text(short_scenario(gating=("{network: chi2, batch_size: 100}",)))
     for net in ("chi2", "chi2-two-sided", "magill"):
         (tmp_path / f"det-{net}.yaml").write_text(config_to_yaml(_calibration(net)))
     (tmp_path / "c.yaml").write_text(campaign)
@@ -73,43 +66,42 @@ def test_anomaly_block_by_hand():
     reps = [_report(t0, False), _report(t0 + 2.5 * DAY, True, "unknown", t0 + 2.1 * DAY, t0 + 2.5 * DAY, 0.4),
             _report(t0 + 3 * DAY, True, "optical-measurement", t0 + 2.1 * DAY, t0 + 2.5 * DAY, 0.9),
             _report(t0 + 4 * DAY, False, "none")]
-    a = anomaly_summary(reps, onset_true=onset, true_class="optical-measurement", t0=t0)
+    a = anomaly_summary(reps, onset_true=onset, true_class="optical-measurement", t0=t0).to_json()
     assert a["declared"] and not a["false_alarm"] and a["detector"]
     assert a["time_day"] == pytest.approx(2.5) and a["latency_s"] == pytest.approx(0.5 * DAY)
     assert a["class"] == "optical-measurement" and a["first_class"] == "unknown" and a["correct_class"]
     assert a["confidence"] == 0.9 and a["onset_estimate"] == t0 + 2.1 * DAY
     assert not a["final_flag"] and a["final_class"] == "none"
-    early = anomaly_summary(reps, onset_true=t0 + 3 * DAY, true_class="optical-measurement", t0=t0)
+    early = anomaly_summary(reps, onset_true=t0 + 3 * DAY, true_class="optical-measurement", t0=t0).to_json()
     assert early["false_alarm"] and early["latency_s"] is None
-    nominal = anomaly_summary(reps, onset_true=None, true_class="none", t0=t0)
+    nominal = anomaly_summary(reps, onset_true=None, true_class="none", t0=t0).to_json()
     assert nominal["false_alarm"] and not nominal["correct_class"]
-    quiet = anomaly_summary([], onset_true=None, true_class="none", t0=t0)
+    quiet = anomaly_summary([], onset_true=None, true_class="none", t0=t0).to_json()
     assert not quiet["detector"] and not quiet["declared"] and quiet["class"] == "none"
 
 
 # -- the plan -----------------------------------------------------------------------------------
 
-def test_monitored_networks_join_the_gating_list_and_the_payload(tmp_path):
-    plan = expand(load_campaign(str(_write(tmp_path))))
+def test_monitored_networks_join_the_gating_list_and_the_task(tmp_path, short_scenario):
+    plan = expand(load_campaign(str(_write(tmp_path, short_scenario))))
     assert len(plan.tasks) == 2
     for t in plan.tasks:
         assert [g["network"] for g in t.scenario["fsw"]["gating"]] == ["chi2", "chi2-two-sided", "magill"]
-        p = t.payload()
-        assert p["detector"] == {"network": "chi2", "calibrated": True,
-                                 "monitors": ["chi2", "chi2-two-sided", "magill"]}
-        assert {n: c["network"] for n, c in p["monitors"].items()} == {n: n for n in p["monitors"]}
-        assert p["monitors"]["magill"]["threshold"] == 8.0
-    assert plan.to_json()["cells"][0]["detector"]["monitors"] == ["chi2", "chi2-two-sided", "magill"]
+        assert t.detector.to_json() == {"network": "chi2", "calibrated": True,
+                                        "monitors": ["chi2", "chi2-two-sided", "magill"]}
+        assert {n: c["network"] for n, c in t.monitors.items()} == {n: n for n in t.monitors}
+        assert t.monitors["magill"]["threshold"] == 8.0
+    assert plan.plan_file().to_json()["cells"][0]["detector"]["monitors"] == ["chi2", "chi2-two-sided", "magill"]
     # monitors change the summary, not the flight: the same cell without them is another run id
-    bare = expand(load_campaign(str(_write(tmp_path, CAMPAIGN.replace(
+    bare = expand(load_campaign(str(_write(tmp_path, short_scenario, CAMPAIGN.replace(
         "        monitors: {chi2: det-chi2.yaml, chi2-two-sided: det-chi2-two-sided.yaml, magill: det-magill.yaml}\n",
         "        gating: [{network: chi2, batch_size: 100}, {network: chi2-two-sided}, {network: magill}]\n")))))
     assert [t.scenario for t in bare.tasks] == [t.scenario for t in plan.tasks]
     assert {t.id for t in bare.tasks}.isdisjoint({t.id for t in plan.tasks})
 
 
-def test_monitor_calibration_of_another_network_or_bank_is_one_line(tmp_path):
-    path = _write(tmp_path, CAMPAIGN.replace("magill: det-magill.yaml", "magill: det-chi2.yaml"))
+def test_monitor_calibration_of_another_network_or_bank_is_one_line(tmp_path, short_scenario):
+    path = _write(tmp_path, short_scenario, CAMPAIGN.replace("magill: det-magill.yaml", "magill: det-chi2.yaml"))
     with pytest.raises(ConfigError) as exc:
         expand(load_campaign(str(path)))
     assert "monitors.magill" in str(exc.value) and "'chi2'" in str(exc.value)
@@ -141,21 +133,22 @@ def test_detection_matrix_carries_three_detectors_on_one_run(tmp_path):
 
 # -- the worker: replay equals the onboard detector ---------------------------------------------
 
-def test_replayed_detector_equals_the_onboard_one_on_a_real_run(tmp_path):
-    plan = expand(load_campaign(str(_write(tmp_path))))
+def test_replayed_detector_equals_the_onboard_one_on_a_real_run(tmp_path, short_scenario):
+    plan = expand(load_campaign(str(_write(tmp_path, short_scenario))))
     task = next(t for t in plan.tasks if t.cell.fault == "optical-bias-medium")
-    row = execute(task.payload())["row"]
-    assert row["status"] == "ok", row["error"]
-    s = row["summary"]
-    onboard, replayed = s["anomaly"], s["monitors"]["chi2"]
-    assert onboard["declared"] and not onboard["false_alarm"] and onboard["correct_class"]
+    row = execute(task).row
+    assert row.status == "ok", row.error
+    s = row.summary
+    onboard, replayed = s.anomaly, s.monitors["chi2"].anomaly
+    assert onboard.declared and not onboard.false_alarm and onboard.correct_class
     # the declaration epoch is the end of the frame that ran the declaring gating batch, not the
     # batch's own epoch: equality here checks the replay's dating, too
     assert replayed == onboard
-    assert json.loads(json.dumps(s["monitors"])) == s["monitors"]  # plain data for runs.jsonl
+    monitors = s.to_json()["monitors"]
+    assert json.loads(json.dumps(monitors)) == monitors  # plain data for runs.jsonl
     for net in ("chi2-two-sided", "magill"):
-        assert set(s["monitors"][net]) >= set(onboard) - {"first_class", "latency_day"}
-        assert s["monitors"][net]["network"] == net and s["monitors"][net]["detector"]
+        assert set(monitors[net]) >= set(onboard.to_json()) - {"first_class", "latency_day"}
+        assert s.monitors[net].anomaly.network == net and s.monitors[net].anomaly.detector
 
 
 LAGGING = """\
@@ -187,7 +180,7 @@ def test_replayed_declarations_are_dated_as_onboard_when_the_gating_lags():
         cfg.fsw, detector=dataclasses.replace(cfg.fsw.detector, network="chi2", calibration=cal)))
     result = run_in_process(cfg)
     onboard = [r for r in result.topic("fsw/anomaly") if r.flag]
-    replayed = replay_detector(result.messages, cal, result.config.fsw.families(), result.summary["t0"])
+    replayed = replay_detector(result.messages, cal, result.config.fsw.families(), result.summary.t0)
     assert all(isinstance(r, m.AnomalyReport) for r in replayed)
     flagged = [r for r in replayed if r.flag]
     assert onboard and flagged
@@ -195,9 +188,8 @@ def test_replayed_declarations_are_dated_as_onboard_when_the_gating_lags():
     assert onboard[0].declared_s - onboard[0].t_s > 10 * cfg.fsw.budget.frame_s
     assert flagged[0].declared_s == onboard[0].declared_s
     assert {r.declared_s for r in flagged} == {r.declared_s for r in onboard}
-    a = result.summary["anomaly"]
-    assert anomaly_summary(replayed, onset_true=a["onset_true"], true_class=a["true_class"],
-                           t0=result.summary["t0"]) == a
+    a = result.summary.anomaly
+    assert anomaly_summary(replayed, onset_true=a.onset_true, true_class=a.true_class, t0=result.summary.t0) == a
 
 
 # -- statistics per detector --------------------------------------------------------------------
@@ -217,10 +209,10 @@ def _mrow(rid, fault, seed, onboard, monitors, *, status="ok"):
                "gating": {"chi2": {"mean_weights": dict(zip(FILTERS, (0.5, 0.25, 0.25)))}},
                "anomaly": onboard, "monitors": monitors, "position_error_rms_km": {"radio": 1.0},
                "budget": {"max_utilisation": 0.5, "overruns": 0, "final_backlog": 0, "max_backlog": 0}}
-    return {"id": rid, "cell": {"scenario": "s", "fault": fault, "variant": "v"}, "seed": seed, "fault_class": tc,
+    return complete_row({"id": rid, "cell": {"scenario": "s", "fault": fault, "variant": "v"}, "seed": seed, "fault_class": tc,
             "detector": {"network": "chi2", "calibrated": True, "monitors": ["magill"]}, "span_days": 10.0,
             "status": status, "summary": summary if status == "ok" else None,
-            "error": None if status == "ok" else {"type": "ValueError", "message": "boom"}, "wall_time_s": 1.0}
+            "error": None if status == "ok" else {"type": "ValueError", "message": "boom"}, "wall_time_s": 1.0})
 
 
 def _mrows():
@@ -243,7 +235,8 @@ def test_every_detector_is_its_own_variant_in_the_statistics():
         "runs": [{"id": i, "cell": f"s / {f} / v", "seed": 1} for i, f in
                  (("n1", "none"), ("n2", "none"), ("o1", "ob"), ("o2", "ob"), ("o3", "ob"), ("o4", "ob"),
                   ("o5", "ob"))]}
-    s = compute(_mrows(), plan)
+    stats = compute([ResultRow.from_json(r) for r in _mrows()], PlanFile.from_json(plan))
+    s = stats.to_json()
     cells = {(c["fault"], c["variant"]): c for c in s["cells"]}
     assert list(cells) == [("none", "v / chi2"), ("none", "v / magill"), ("ob", "v / chi2"), ("ob", "v / magill")]
     chi2, mag = cells[("ob", "v / chi2")], cells[("ob", "v / magill")]
@@ -262,7 +255,7 @@ def test_every_detector_is_its_own_variant_in_the_statistics():
     assert conf["v / chi2"]["matrix"][OPT]["none"] == 1 and conf["v / chi2"]["matrix"][OPT][OPT] == 2
     (table,) = s["weight_tables"]  # the runs' weights once, under the real variant
     assert table["variant"] == "v" and [r["case"] for r in table["rows"]] == ["none", "ob"]
-    md = render(s)
+    md = render(stats)
     assert "## Detectors side by side" in md and "| fault | chi2 | magill |" in md
     assert "| ob | 2/3 66.7 % [9, 99] | 1/2 50.0 % [1, 99] |" in md
     assert "| none | FA 0/2 0.0 % [0, 84]; 0/day | FA 1/2 50.0 % [1, 99]; 0.0833/day |" in md

@@ -29,8 +29,8 @@ def test_chi2_prefers_the_inflated_filter_and_the_two_sided_network_does_not():
     data = typed.encode(load_scenario("insight-overinflated"))
     merge(data, {"sim.trajectory.span_days": 8.0})  # five chi2 batches of 1000 measurements
     summary = run_in_process(typed.decode(ScenarioConfig, data), 3).summary
-    chi2 = summary["gating"]["chi2"]["mean_weights"]
-    two = summary["gating"]["chi2-two-sided"]["mean_weights"]
+    chi2 = summary.gating["chi2"].mean_weights
+    two = summary.gating["chi2-two-sided"].mean_weights
     assert max(chi2, key=chi2.get) == "fused-inflated" and chi2["fused-inflated"] > 0.5
     assert min(two, key=two.get) == "fused-inflated" and two["fused-inflated"] < 0.2
     # the healthy, consistent filters keep about equal shares under the two-sided network

@@ -13,17 +13,6 @@ import pytest
 
 from tools.campaign.store import read_rows
 
-SCENARIO = """\
-name: short
-sim:
-  trajectory: {span_days: 2.0}
-fsw:
-  budget: {mode: work-units}
-  gating:
-    - {network: chi2, batch_size: 200}
-    - {network: magill}
-"""
-
 # the `broken` variant fails at run time (the entry epoch is only parsed when the run starts); its
 # block comes last so that the interruptions below land on runs that take a few seconds
 CAMPAIGN = """\
@@ -71,8 +60,8 @@ def _check_whole_lines(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_interrupt_resume_failures_and_rerun_failed(tmp_path):
-    (tmp_path / "short.yaml").write_text(SCENARIO)
+def test_interrupt_resume_failures_and_rerun_failed(tmp_path, short_scenario):
+    (tmp_path / "short.yaml").write_text(short_scenario())
     (tmp_path / "c.yaml").write_text(CAMPAIGN)
 
     # 1. one Ctrl-C: stop submitting, let the running run finish, exit 130
@@ -107,17 +96,17 @@ def test_interrupt_resume_failures_and_rerun_failed(tmp_path):
     result = json.loads(out.strip().splitlines()[-1])
     assert result["skipped"] == len(second) and result["finished"] == TOTAL - len(second)
     rows = _rows(tmp_path).rows
-    counts = Counter(r["id"] for r in rows)
+    counts = Counter(r.id for r in rows)
     assert len(counts) == TOTAL and set(counts.values()) == {1}, "a finished run was done twice"
     plan = json.loads((tmp_path / "out" / "plan.json").read_text())
     assert set(counts) == {r["id"] for r in plan["runs"]}
-    failed = [r for r in rows if r["status"] == "failed"]
-    assert len(failed) == FAILED and {r["cell"]["variant"] for r in failed} == {"broken"}
+    failed = [r for r in rows if r.status == "failed"]
+    assert len(failed) == FAILED and {r.cell.variant for r in failed} == {"broken"}
     for r in failed:
-        assert r["error"]["type"] == "TimeError" and "2018-13-45" in r["error"]["message"]
-        assert "Traceback" in r["error"]["traceback"] or "Error" in r["error"]["traceback"]
-        assert r["seed"] in (1, 2, 3)
-    assert sum(r["status"] == "ok" for r in rows) == OK
+        assert r.error.type == "TimeError" and "2018-13-45" in r.error.message
+        assert "Traceback" in r.error.traceback or "Error" in r.error.traceback
+        assert r.seed in (1, 2, 3)
+    assert sum(r.status == "ok" for r in rows) == OK
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["runs"] == summary["runs"] | {"ok": OK, "failed": FAILED, "missing": 0}
     assert "## Failed runs" in (tmp_path / "out" / "report.md").read_text()
@@ -133,8 +122,8 @@ def test_interrupt_resume_failures_and_rerun_failed(tmp_path):
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 1, err
     rows = _rows(tmp_path).rows
-    counts = Counter(r["id"] for r in rows)
-    failed_ids = {r["id"] for r in failed}
+    counts = Counter(r.id for r in rows)
+    failed_ids = {r.id for r in failed}
     assert all(counts[i] == 2 for i in failed_ids)
     assert all(c == 1 for i, c in counts.items() if i not in failed_ids)
     assert os.path.getsize(tmp_path / "out" / "runs.jsonl") > 0

@@ -9,16 +9,6 @@ from tools.campaign.plan import expand, merge, run_id
 from tools.campaign.spec import builtin_names, load_campaign
 from tools.cli import main
 
-SCENARIO = """\
-name: short
-sim:
-  trajectory: {span_days: 3.0}
-fsw:
-  gating:
-    - {network: chi2, batch_size: 200}
-    - {network: magill}
-"""
-
 CAMPAIGN = """\
 name: t
 seeds: {count: 2, base: 5}
@@ -41,15 +31,15 @@ matrix:
 """
 
 
-def _write(tmp_path: Path, campaign: str = CAMPAIGN, scenario: str = SCENARIO) -> Path:
-    (tmp_path / "short.yaml").write_text(scenario)
+def _write(tmp_path: Path, short_scenario, campaign: str = CAMPAIGN) -> Path:
+    (tmp_path / "short.yaml").write_text(short_scenario(3.0, work_units=False))
     p = tmp_path / "c.yaml"
     p.write_text(campaign)
     return p
 
 
-def test_expansion_cells_seeds_and_resolved_configs(tmp_path):
-    plan = expand(load_campaign(str(_write(tmp_path))))
+def test_expansion_cells_seeds_and_resolved_configs(tmp_path, short_scenario):
+    plan = expand(load_campaign(str(_write(tmp_path, short_scenario))))
     assert len(plan.cells) == 4 * 3 and len(plan.tasks) == 4 * 3 * 2
     assert [t.seed for t in plan.tasks[:2]] == [5, 6]
     by = {(t.cell.fault, t.cell.variant, t.seed): t for t in plan.tasks}
@@ -70,8 +60,8 @@ def test_expansion_cells_seeds_and_resolved_configs(tmp_path):
     assert not t.detector_calibrated  # the scenario carries no calibration
 
 
-def test_run_ids_are_stable_and_follow_the_configuration(tmp_path):
-    p = _write(tmp_path)
+def test_run_ids_are_stable_and_follow_the_configuration(tmp_path, short_scenario):
+    p = _write(tmp_path, short_scenario)
     ids1 = [t.id for t in expand(load_campaign(str(p))).tasks]
     ids2 = [t.id for t in expand(load_campaign(str(p))).tasks]
     assert ids1 == ids2 and len(set(ids1)) == len(ids1)
@@ -105,9 +95,9 @@ BAD = [
 
 
 @pytest.mark.parametrize("old,new,line,words", BAD)
-def test_bad_campaign_is_one_line_with_file_and_line(tmp_path, capsys, old, new, line, words):
+def test_bad_campaign_is_one_line_with_file_and_line(tmp_path, short_scenario, capsys, old, new, line, words):
     assert old in CAMPAIGN
-    p = _write(tmp_path, CAMPAIGN.replace(old, new, 1))
+    p = _write(tmp_path, short_scenario, CAMPAIGN.replace(old, new, 1))
     with pytest.raises(ConfigError) as info:
         expand(load_campaign(str(p)))
     msg = str(info.value)
@@ -153,7 +143,7 @@ def test_unknown_builtin_campaign_is_a_config_error(capsys):
     assert "optical-bias" in capsys.readouterr().err
 
 
-def test_calibration_for_another_network_is_dropped(tmp_path):
+def test_calibration_for_another_network_is_dropped(tmp_path, short_scenario):
     from fsw.fdir.config import DetectorConfig, config_to_yaml
 
     cal = DetectorConfig(network="chi2", filters=("radio", "optical", "fused"), nominal_mean=(1 / 3,) * 3,
@@ -161,14 +151,14 @@ def test_calibration_for_another_network_is_dropped(tmp_path):
                          clear_threshold=2.0, onset_reference=1.0)
     (tmp_path / "det.yaml").write_text(config_to_yaml(cal))
     text = CAMPAIGN.replace("      - default\n", "      - {name: cal, calibration: det.yaml}\n")
-    plan = expand(load_campaign(str(_write(tmp_path, text))))
+    plan = expand(load_campaign(str(_write(tmp_path, short_scenario, text))))
     cal_runs = [t for t in plan.tasks if t.cell.variant == "cal"]
     assert cal_runs and all(t.detector_calibrated and t.scenario["fsw"]["detector"]["calibration"]["threshold"] == 3.0
                             for t in cal_runs)
     # a variant that moves the detector to magill cannot use a chi2 calibration
     text2 = CAMPAIGN.replace("      - default\n", "      - {name: cal, calibration: det.yaml}\n"
                              "      - {name: cal-magill, calibration: det.yaml, detector: magill}\n")
-    plan2 = expand(load_campaign(str(_write(tmp_path, text2))))
+    plan2 = expand(load_campaign(str(_write(tmp_path, short_scenario, text2))))
     mag = [t for t in plan2.tasks if t.cell.variant == "cal-magill"]
     assert mag and not any(t.detector_calibrated for t in mag)
     assert all(t.scenario["fsw"]["detector"]["calibration"] is None for t in mag)

@@ -7,6 +7,9 @@ import numpy as np
 import pytest
 from scipy import optimize, stats
 
+from campaign_rows import complete_row
+from ground.report.row_types import ResultRow
+from tools.campaign.plan_file import PlanFile
 from tools.campaign.report import render
 from tools.campaign.stats import binomial, compute, latency_stats, poisson_rate
 from tools.cli import main
@@ -30,10 +33,14 @@ def _summary(*, declared=False, false_alarm=False, latency_h=None, cls="none", t
 
 
 def _row(rid, fault, seed, summary, *, fault_class, calibrated=True, status="ok", span=10.0):
-    return {"id": rid, "cell": {"scenario": "s", "fault": fault, "variant": "v"}, "seed": seed,
+    return complete_row({"id": rid, "cell": {"scenario": "s", "fault": fault, "variant": "v"}, "seed": seed,
             "fault_class": fault_class, "detector": {"network": "chi2", "calibrated": calibrated},
             "span_days": span, "status": status, "summary": summary if status == "ok" else None,
-            "error": None if status == "ok" else {"type": "ValueError", "message": "boom"}, "wall_time_s": 2.0}
+            "error": None if status == "ok" else {"type": "ValueError", "message": "boom"}, "wall_time_s": 2.0})
+
+
+def _decoded(rows):
+    return [ResultRow.from_json(r) for r in rows]
 
 
 OPT = "optical-measurement"
@@ -70,7 +77,7 @@ def _cell(s, fault):
 
 @pytest.mark.parametrize("k,n", [(0, 1), (0, 20), (1, 4), (3, 5), (7, 10), (20, 20), (13, 600)])
 def test_clopper_pearson_against_beta_quantiles_and_binomial_tails(k, n):
-    b = binomial(k, n, 0.95)
+    b = binomial(k, n, 0.95).to_json()
     lo, hi = b["ci"]
     # the textbook Beta-quantile form, computed here directly
     exp_lo = 0.0 if k == 0 else stats.beta(k, n - k + 1).ppf(0.025)
@@ -85,27 +92,27 @@ def test_clopper_pearson_against_beta_quantiles_and_binomial_tails(k, n):
 
 
 def test_poisson_rate_interval_against_tail_equations():
-    r = poisson_rate(1, 32.5, 0.95)
+    r = poisson_rate(1, 32.5, 0.95).to_json()
     assert r["per_day"] == pytest.approx(1 / 32.5)
     lo, hi = r["ci"]
     assert lo == pytest.approx(-math.log(0.975) / 32.5, rel=1e-9)  # P(N >= 1) = 1 - exp(-mu) = 0.025
     mu_hi = optimize.brentq(lambda mu: stats.poisson.cdf(1, mu) - 0.025, 0.1, 50.0, xtol=1e-12)
     assert hi == pytest.approx(mu_hi / 32.5, rel=1e-8)
-    r0 = poisson_rate(0, 10.0)
+    r0 = poisson_rate(0, 10.0).to_json()
     assert r0["ci"][0] == 0.0 and r0["ci"][1] == pytest.approx(-math.log(0.025) / 10.0, rel=1e-9)
 
 
 def test_latency_percentiles_by_hand():
-    lat = latency_stats([2 * H, 4 * H, 10 * H])
+    lat = latency_stats([2 * H, 4 * H, 10 * H]).to_json()
     assert lat["median_h"] == pytest.approx(4.0)
     assert lat["p90_h"] == pytest.approx(4.0 + 0.8 * (10.0 - 4.0))  # rank 0.9 * 2 = 1.8
-    lat4 = latency_stats([1 * H, 2 * H, 3 * H, 9 * H])
+    lat4 = latency_stats([1 * H, 2 * H, 3 * H, 9 * H]).to_json()
     assert lat4["median_h"] == pytest.approx(2.5) and lat4["p90_h"] == pytest.approx(3.0 + 0.7 * 6.0)
     assert latency_stats([]) is None
 
 
 def test_cell_statistics_on_hand_made_rows():
-    s = compute(_rows())
+    s = compute(_decoded(_rows())).to_json()
     ob = _cell(s, "ob")
     assert ob["runs"]["ok"] == 5 and ob["runs"]["failed"] == 1
     assert ob["detection"]["k"] == 3 and ob["detection"]["n"] == 5
@@ -126,7 +133,7 @@ def test_cell_statistics_on_hand_made_rows():
 
 
 def test_confusion_matrix_by_hand():
-    s = compute(_rows())
+    s = compute(_decoded(_rows())).to_json()
     (g,) = s["confusion"]
     assert g["true_classes"] == ["none", OPT]
     assert g["matrix"]["none"] == {"none": 3, OPT: 1, RAD: 0}
@@ -137,7 +144,7 @@ def test_uncalibrated_cells_report_na_and_weight_table_layout():
     rows = [_row(f"u{i}", "none", i, _summary(), fault_class="none", calibrated=False) for i in range(3)]
     rows += [_row(f"v{i}", "ob", i, _summary(weights=(0.9, 0.05, 0.05), true_class=OPT), fault_class=OPT,
                   calibrated=False) for i in range(3)]
-    s = compute(rows)
+    s = compute(_decoded(rows)).to_json()
     assert all(c["detection"] is None and c["false_alarm"] is None for c in s["cells"])
     assert s["confusion"] == []
     (t,) = s["weight_tables"]
@@ -150,7 +157,7 @@ def test_plan_gives_missing_runs_and_ignores_stale_rows():
     rows = _rows()
     plan = {"name": "p", "cells": [{"scenario": "s", "fault": "none", "variant": "v", "key": "s / none / v"}],
             "runs": [{"id": f"n{i}", "cell": "s / none / v", "seed": i} for i in range(1, 7)]}
-    s = compute(rows, plan)
+    s = compute(_decoded(rows), PlanFile.from_json(plan)).to_json()
     assert [c["fault"] for c in s["cells"]] == ["none"]
     assert s["runs"]["planned"] == 6 and s["runs"]["missing"] == 2 and s["runs"]["stale_rows"] == 6
     assert _cell(s, "none")["runs"]["missing"] == 2
@@ -172,8 +179,8 @@ def test_planned_cell_without_rows_keeps_its_fault_class():
     plan = {"name": "p", "cells": [{"scenario": "s", "fault": "big", "variant": "v", "key": "s / big / v",
                                     "fault_class": OPT, "detector": {"network": "magill", "calibrated": True}}],
             "runs": [{"id": "x1", "cell": "s / big / v", "seed": 1}]}
-    s = compute([], plan)
-    (c,) = s["cells"]
+    computed = compute([], PlanFile.from_json(plan))
+    (c,) = computed.to_json()["cells"]
     assert c["fault_class"] == OPT and c["detector"]["network"] == "magill"
     assert c["detection"]["n"] == 0 and c["detection"]["rate"] is None and c["runs"]["missing"] == 1
-    assert "| s | big | v | magill | 0 | n/a |" in render(s)
+    assert "| s | big | v | magill | 0 | n/a |" in render(computed)

@@ -11,6 +11,7 @@ pytest.importorskip("matplotlib")
 
 from ground.report import campaign_data as C
 from ground.report.campaign_plots import plot_weight_history, write_campaign_figures
+from ground.report.run_weights import RunWeights
 from tools.campaign.store import RunStore
 
 T0 = 5.0e8
@@ -32,7 +33,7 @@ def _row(rid, fault, seed, *, t0=True, onset_day=None):
 def _history(days, radio):
     radio = np.asarray(radio, dtype=float)
     w = np.column_stack([radio, (1 - radio) / 2, (1 - radio) / 2])
-    return {"filters": FILTERS, "t_s": T0 + np.asarray(days) * DAY, "batch": np.arange(len(days)), "weights": w}
+    return RunWeights(filters=tuple(FILTERS), t_s=T0 + np.asarray(days) * DAY, batch=np.arange(len(days)), weights=w)
 
 
 @pytest.fixture

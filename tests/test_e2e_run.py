@@ -16,32 +16,16 @@ from mcap.reader import make_reader
 
 from ground.mcap_io.reader import read_messages
 
-SHORT = """\
-name: short-e2e
-description: four-day approach slice with a large optical bias from day 1.5
-seed: 2
-sim:
-  trajectory: {span_days: 4.0}
-  faults:
-    - {type: optical-bias, onset_day: 1.5, sample_px: 20.0, line_px: 30.0}
-fsw:
-  gating:
-    - {network: chi2, batch_size: 300}
-    - {network: magill}
-"""
-
-LONG = SHORT.replace("span_days: 4.0", "span_days: 30.0")
-
 
 def _navbank(*args: str, **kw) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "tools.cli", *args], capture_output=True, text=True, **kw)
 
 
 @pytest.fixture(scope="module")
-def short_run(tmp_path_factory):
+def short_run(tmp_path_factory, short_e2e_yaml):
     d = tmp_path_factory.mktemp("run")
     scen = d / "short.yaml"
-    scen.write_text(SHORT)
+    scen.write_text(short_e2e_yaml)
     out = d / "out"
     t0 = time.monotonic()
     proc = _navbank("run", "--scenario", str(scen), "--out", str(out), "--quiet", timeout=300)
@@ -126,9 +110,9 @@ def _cmdline(pid: int) -> str:
 
 
 @pytest.mark.slow
-def test_killed_fsw_is_reported_and_the_run_stops(tmp_path):
+def test_killed_fsw_is_reported_and_the_run_stops(tmp_path, short_e2e_yaml):
     scen = tmp_path / "long.yaml"
-    scen.write_text(LONG)
+    scen.write_text(short_e2e_yaml.replace("span_days: 4.0", "span_days: 30.0"))
     proc = subprocess.Popen([sys.executable, "-m", "tools.cli", "run", "--scenario", str(scen), "--out", str(tmp_path / "o"),
                              "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -180,7 +164,7 @@ def test_default_run_detects_the_optical_bias_and_a_nominal_run_raises_nothing(t
         assert "no anomaly declared" in proc.stdout
 
 
-def test_in_process_run_equals_the_multi_process_run_in_work_unit_mode(tmp_path):
+def test_in_process_run_equals_the_multi_process_run_in_work_unit_mode(tmp_path, short_e2e_yaml):
     """Campaigns use the in-process runner; in deterministic budget mode it must give exactly the
     FSW outputs of the three processes over Zenoh."""
     import yaml
@@ -192,7 +176,7 @@ def test_in_process_run_equals_the_multi_process_run_in_work_unit_mode(tmp_path)
     # any calibration makes the detector run (this one is the built-in scenario's)
     cal = load_scenario("insight-approach").fsw.detector.calibration
     det = yaml.safe_dump({"detector": {"network": "chi2", "calibration": typed.encode(cal)}}, default_flow_style=True)
-    text = SHORT + "  budget: {mode: work-units}\n" + "  " + det.strip()[1:-1] + "\n"
+    text = short_e2e_yaml + "  budget: {mode: work-units}\n" + "  " + det.strip()[1:-1] + "\n"
     scen = tmp_path / "wu.yaml"
     scen.write_text(text)
     proc = _navbank("run", "--scenario", str(scen), "--out", str(tmp_path / "o"), "--quiet", timeout=300)
@@ -202,4 +186,4 @@ def test_in_process_run_equals_the_multi_process_run_in_work_unit_mode(tmp_path)
         recorded = [codec.to_json(r.message) for r in read_messages(tmp_path / "o" / "run.mcap", topics=["/" + topic])]
         mine = [codec.to_json(m) for m in local.topic(topic)]
         assert recorded and recorded == mine, topic
-    assert local.summary["anomaly"]["declared"]
+    assert local.summary.anomaly.declared

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from fsw.fdir.calibrate import calibrate
+from tools.calibration.thresholds import calibrate
 from fsw.fdir.config import DetectorConfig
 from fsw.fdir.detector import AnomalyDetector
 from fsw.fdir.errors import FdirInputError

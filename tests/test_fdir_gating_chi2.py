@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fsw.fdir.calibrate import calibrate
+from tools.calibration.thresholds import calibrate
 from fsw.fdir.detector import AnomalyDetector
 from fsw.filters.record import BankRecord
 from fsw.gating.registry import make_network, params_type

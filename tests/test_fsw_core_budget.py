@@ -50,11 +50,11 @@ def test_quarter_budget_defers_but_loses_nothing_and_changes_no_number(nominal):
     cfg, full = nominal
     quarter = run_in_process(_budget(cfg, work_unit_budget=25.0))
     s_full, s_q = full.summary, quarter.summary
-    assert s_q["measurements"]["processed"] == s_q["measurements"]["published"] == s_full["measurements"]["processed"]
-    assert s_q["measurements"]["lost"] == 0
-    assert s_full["budget"]["max_backlog"] <= 1
-    assert s_q["budget"]["max_backlog"] > 10  # the backlog builds up in tracking passes ...
-    assert s_q["budget"]["final_backlog"] == 0  # ... and is caught up
+    assert s_q.measurements.processed == s_q.measurements.published == s_full.measurements.processed
+    assert s_q.measurements.lost == 0
+    assert s_full.budget.max_backlog <= 1
+    assert s_q.budget.max_backlog > 10  # the backlog builds up in tracking passes ...
+    assert s_q.budget.final_backlog == 0  # ... and is caught up
     budget = quarter.topic("fsw/budget")
     assert any(b.deferred > 0 for b in budget)
     # Starving the FSW delays its work but never changes the filters or the gating: every
@@ -73,7 +73,7 @@ def test_cpu_mode_counts_overruns_and_still_processes_everything(nominal):
     cfg, _ = nominal
     starved = run_in_process(_budget(cfg, mode="cpu", cpu_budget_s=1e-4, cpu_scale=10.0))
     s = starved.summary
-    assert s["budget"]["mode"] == "cpu"
-    assert s["budget"]["overruns"] > 0
-    assert s["measurements"]["processed"] == s["measurements"]["published"]
-    assert s["budget"]["final_backlog"] == 0
+    assert s.budget.mode == "cpu"
+    assert s.budget.overruns > 0
+    assert s.measurements.processed == s.measurements.published
+    assert s.budget.final_backlog == 0

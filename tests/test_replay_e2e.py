@@ -17,22 +17,6 @@ from ground.replay.recording import iter_raw
 
 CTX = mp.get_context("spawn")
 
-# tests/test_e2e_run.py's SHORT scenario, in the deterministic work-unit budget mode
-SHORT = """\
-name: short-e2e
-description: four-day approach slice with a large optical bias from day 1.5
-seed: 2
-sim:
-  trajectory: {span_days: 4.0}
-  faults:
-    - {type: optical-bias, onset_day: 1.5, sample_px: 20.0, line_px: 30.0}
-fsw:
-  budget: {mode: work-units}
-  gating:
-    - {network: chi2, batch_size: 300}
-    - {network: magill}
-"""
-
 pytestmark = pytest.mark.slow
 
 
@@ -41,9 +25,10 @@ def _navbank(*args: str, timeout: float = 180) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
-def recorded(tmp_path_factory):
+def recorded(tmp_path_factory, short_e2e_yaml):
     d = tmp_path_factory.mktemp("replay")
-    (d / "short.yaml").write_text(SHORT)
+    # the end-to-end scenario in the deterministic work-unit budget mode
+    (d / "short.yaml").write_text(short_e2e_yaml + "  budget: {mode: work-units}\n")
     proc = _navbank("run", "--scenario", str(d / "short.yaml"), "--out", str(d / "out"), "--quiet", timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     return d / "out" / "run.mcap"

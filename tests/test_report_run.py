@@ -202,7 +202,7 @@ def short_run():
 
 def test_facts_agree_with_the_run_summary(short_run):
     facts = run_facts(extract(short_run.messages))
-    ref = short_run.summary
+    ref = short_run.summary.to_json()
     for key in ("position_error_rms_km", "position_error_final_km", "position_within_3sigma"):
         assert facts[key].keys() == ref[key].keys()
         for label in ref[key]:
@@ -228,7 +228,7 @@ def test_report_of_a_recorded_run_directory(short_run, tmp_path):
     with McapRecorder(run_dir / "run.mcap") as rec:
         for i, (topic, msg) in enumerate(short_run.messages):
             rec.write_message(topic, msg, log_time_ns=1_700_000_000_000_000_000 + 1000 * i)
-    (run_dir / "summary.json").write_text(json.dumps(short_run.summary, default=str))
+    (run_dir / "summary.json").write_text(json.dumps(short_run.summary.to_json()))
     (run_dir / "config.yaml").write_text(to_yaml(short_run.config))
     paths = report(run_dir)
     assert all(p.parent == run_dir / "report" for p in paths)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from campaign_rows import complete_row
 from tools.validation import paper
 from tools.validation.document import detection_section, render, table3_section
 
@@ -25,8 +26,8 @@ def _row(i: int, case: str, seed: int, weights: dict, anomaly: dict, monitors: d
                "anomaly": anomaly}
     if monitors:
         summary["monitors"] = monitors
-    return {"id": f"r{i:03d}", "cell": {"scenario": "insight-approach", "fault": case, "variant": "v"},
-            "seed": seed, "status": "ok", "summary": summary}
+    return complete_row({"id": f"r{i:03d}", "cell": {"scenario": "insight-approach", "fault": case, "variant": "v"},
+                         "seed": seed, "status": "ok", "summary": summary})
 
 
 def _write(tmp_path: Path, rows: list[dict]) -> Path:
@@ -64,7 +65,7 @@ def test_detection_section_counts_detections_false_alarms_and_classes(tmp_path):
         a = _anomaly(seed <= 3, "optical-measurement", latency_h=10.0 * seed,
                      cls="optical-measurement" if seed <= 2 else "unknown")
         m = _anomaly(seed == 1, "optical-measurement", latency_h=50.0, cls="radiometric-measurement")
-        rows.append(_row(i, "optical-bias-medium", seed, w, a, {"magill": m, "chi2-two-sided": {"error": "boom"}}))
+        rows.append(_row(i, "optical-bias-medium", seed, w, a, {"magill": m, "chi2-two-sided": {"error": {"type": "FdirInputError", "message": "boom"}}}))
         i += 1
     sec = detection_section(_write(tmp_path, rows), [], tmp_path)
     text = "\n".join(sec.lines)

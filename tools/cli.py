@@ -13,6 +13,7 @@ import os
 import sys
 
 from fsw.interface.yamlconfig import ConfigError
+from tools.commands.errors import UsageError
 
 #: Subcommand modules, in the order ``navbank --help`` lists them.
 COMMANDS = (
@@ -29,10 +30,6 @@ COMMANDS = (
     "tools.commands.calibrate",
     "tools.commands.validation_report",
 )
-
-
-class UsageError(Exception):
-    """A bad command-line value: reported as one line, exit code 2."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -72,8 +69,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    # `python -m tools.cli`: run the importable module's main, so that the exception classes the
-    # subcommands raise (tools.cli.UsageError) are the ones caught here
-    from tools.cli import main as _main
-
-    sys.exit(_main())
+    sys.exit(main())

@@ -8,25 +8,29 @@ FSW outputs are identical to those of ``navbank run`` for the same scenario, fau
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Callable
 
 from fsw.core import FswCore, stamp
 from fsw.interface import messages as m, topics
 from sim.stream import SimRun, generate
 from tools.scenario import ScenarioConfig, resolve
-from tools.summary import summarize
+from ground.report.run_summary import summarize
+from ground.report.summary_types import RunSummary
 
 
 @dataclass
 class RunResult:
+    """Everything one in-process run produced: the ``(topic, message)`` pairs in the order the
+    simulator and the FSW emitted them, and the run's summary."""
+
     config: ScenarioConfig
     seed: int
-    messages: list[tuple[str, Any]] = field(default_factory=list)
-    summary: dict = field(default_factory=dict)
+    messages: list[tuple[str, Any]]
+    summary: RunSummary
     sim: SimRun | None = None
 
-    def topic(self, name: str) -> list:
+    def topic(self, name: str) -> list[Any]:
         name = name.strip("/")
         return [msg for t, msg in self.messages if t == name]
 
@@ -45,8 +49,7 @@ def run_in_process(cfg: ScenarioConfig, seed: int | None = None, *, fault_label:
     wall0 = time.perf_counter()
     resolved, seed = resolve(cfg, seed)
     run = generate(resolved.sim, seed=seed)
-    result = RunResult(config=resolved, seed=seed, sim=run if keep_sim else None)
-    out = result.messages
+    out: list[tuple[str, Any]] = []
     core = FswCore(resolved.fsw, lambda topic, msg: out.append((topic, msg)), run_id=run_id)
     out.append((topics.SIM_STATUS, sim_status(run, run_id, "start")))
     core.start()
@@ -63,6 +66,6 @@ def run_in_process(cfg: ScenarioConfig, seed: int | None = None, *, fault_label:
     core.finish()
     if progress is not None:
         progress(1.0)
-    result.summary = summarize(out, scenario=resolved.name, seed=seed, fault=fault_label, t0=run.t_start,
-                               wall_time_s=time.perf_counter() - wall0)
-    return result
+    summary = summarize(out, scenario=resolved.name, seed=seed, fault=fault_label, t0=run.t_start,
+                        wall_time_s=time.perf_counter() - wall0)
+    return RunResult(config=resolved, seed=seed, messages=out, summary=summary, sim=run if keep_sim else None)

@@ -11,7 +11,7 @@ first, and supervises:
 * SIGINT/SIGTERM to the launcher stops all three the same way (the logger finishes its file);
 * a run that does not end within ``timeout_s`` is stopped and reported.
 
-On success it reads the MCAP back, computes the summary (``tools.summary``) and writes
+On success it reads the MCAP back, computes the summary (``ground.report.run_summary``) and writes
 ``DIR/summary.json`` next to ``DIR/run.mcap``, ``DIR/config.yaml`` and one log per process.
 """
 

@@ -24,7 +24,7 @@ statistics and confusion matrices therefore come out per network, while the weig
 from the runs once.
 
 Detection probabilities carry exact (Clopper–Pearson) intervals, the same as the campaign's own
-``summary.json`` (:func:`fsw.fdir.calibrate.clopper_pearson`).
+``summary.json`` (:func:`ground.report.intervals.clopper_pearson`).
 """
 
 from __future__ import annotations
@@ -34,15 +34,14 @@ import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from fsw.fdir.calibrate import clopper_pearson
+from ground.report.intervals import clopper_pearson
+from ground.report.run_weights import RunWeights
 from fsw.interface.messages import ANOMALY_CLASSES
 
 RUNS_FILE = "runs.jsonl"
-SUMMARY_FILE = "summary.json"
 OK_STATUSES = frozenset({"ok", "done", "complete", "completed", "success", "succeeded", "cached", "reused"})
 SIZES = ("small", "medium", "large")
 
@@ -57,11 +56,10 @@ class Campaign:
     rows: list[dict]  # successful runs
     failed: list[dict] = field(default_factory=list)
     bad_lines: int = 0  # lines of runs.jsonl that were not JSON objects
-    summary: dict | None = None  # summary.json, if present
 
 
 def load_campaign(path: str | Path) -> Campaign:
-    """Read ``runs.jsonl`` (and ``summary.json`` when present) from a campaign directory."""
+    """Read ``runs.jsonl`` from a campaign directory."""
     path = Path(path)
     runs = path / RUNS_FILE
     if not runs.is_file():
@@ -86,13 +84,7 @@ def load_campaign(path: str | Path) -> Campaign:
             latest[str(row.get("id", f"#{k}"))] = row
     rows = [r for r in latest.values() if is_ok(r)]
     failed = [r for r in latest.values() if not is_ok(r)]
-    summary = None
-    if (path / SUMMARY_FILE).is_file():
-        try:
-            summary = json.loads((path / SUMMARY_FILE).read_text(encoding="utf-8"))
-        except ValueError:
-            summary = None
-    return Campaign(path=path, rows=rows, failed=failed, bad_lines=bad, summary=summary)
+    return Campaign(path=path, rows=rows, failed=failed, bad_lines=bad)
 
 
 def flatten(row: dict) -> dict:
@@ -262,7 +254,7 @@ class CaseStats:
         return f"{self.case} [{self.variant}]" if self.variant and self.show_variant else self.case
 
 
-def _ordered(keys: Iterable[str]) -> list[str]:
+def reading_order(keys: Iterable[str]) -> list[str]:
     """Cases in a reading order: nominal first, then by family and size small → large."""
     def key(c: str) -> tuple:
         fam, size = split_size(c)
@@ -273,7 +265,7 @@ def _ordered(keys: Iterable[str]) -> list[str]:
 
 
 def cases(rows: list[dict]) -> list[str]:
-    return _ordered(case_of(r) for r in rows)
+    return reading_order(case_of(r) for r in rows)
 
 
 def variants(rows: list[dict]) -> list[str]:
@@ -385,11 +377,6 @@ def mean_weights(rows: list[dict], network: str, variant: str = "", which: str =
     return MeanWeights(network, variant, case_list, filters, mean, std, n)
 
 
-def describe_rows(rows: list[dict]) -> dict[str, Any]:
-    """A few headline numbers of a campaign."""
-    return {"runs": len(rows), "cases": len(cases(rows)), "variants": variants(rows), "networks": networks(rows)}
-
-
 WEIGHTS_DIR = "weights"
 DAY_S = 86400.0
 
@@ -402,15 +389,14 @@ def kept_networks(camp: Campaign) -> list[str]:
     return sorted(p.name for p in wdir.iterdir() if p.is_dir() and any(p.glob("*.npz")))
 
 
-def load_history(camp: Campaign, network: str, run_id: str) -> dict[str, np.ndarray] | None:
+def load_history(camp: Campaign, network: str, run_id: str) -> RunWeights | None:
     """One run's stored weight history of ``network`` (None when absent or unreadable)."""
     path = camp.path / WEIGHTS_DIR / network / f"{run_id}.npz"
     if not path.is_file():
         return None
     try:
-        with np.load(path, allow_pickle=False) as data:
-            return {k: data[k] for k in data.files}
-    except (OSError, ValueError):
+        return RunWeights.load(path)
+    except (OSError, ValueError, KeyError):  # not a history (another writer's file, a cut copy)
         return None
 
 
@@ -453,20 +439,20 @@ def weight_history(camp: Campaign, network: str, scenario: str, variant: str = "
     runs: dict[str, list[tuple[np.ndarray, np.ndarray, list[str]]]] = {}
     onsets: dict[str, list[float]] = {}
     histories = [(r, h) for r in rows if (h := load_history(camp, network, str(r.get("id")))) is not None
-                 and h["weights"].size > 0]
+                 and h.weights.size > 0]
     if not histories:
         return None
     # runs of one scenario share its start epoch: a row that does not record it borrows another's
     t0_common = next((t for r, _ in histories if (t := start_epoch(r)) is not None), None)
     origin = "scenario start"
     if t0_common is None:
-        t0_common = min(float(h["t_s"][0]) for _, h in histories)
+        t0_common = min(float(h.t_s[0]) for _, h in histories)
         origin = "first gating batch"
     for r, h in histories:
         t0 = start_epoch(r)
         t0 = t0 if t0 is not None else t0_common
         case = case_of(r)
-        runs.setdefault(case, []).append(((h["t_s"] - t0) / DAY_S, h["weights"], [str(f) for f in h["filters"]]))
+        runs.setdefault(case, []).append(((h.t_s - t0) / DAY_S, h.weights, list(h.filters)))
         od = (r.get("anomaly") or {}).get("onset_true_day")
         if od is not None:
             onsets.setdefault(case, []).append(float(od))
@@ -476,7 +462,7 @@ def weight_history(camp: Campaign, network: str, scenario: str, variant: str = "
             filters.extend(f for f in names if f not in filters)
     end = max(float(d[-1]) for hs in runs.values() for d, _, _ in hs)
     days = np.linspace(0.0, end, points)
-    case_list = [c for c in _ordered(runs)]
+    case_list = [c for c in reading_order(runs)]
     shape = (len(case_list), points, len(filters))
     med, lo, hi = np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan)
     for ci, case in enumerate(case_list):

@@ -205,7 +205,7 @@ def plot_detectors_compared(stats: list[C.CaseStats], confusions: dict[str, tupl
         return None
     bases = {s.base_variant for s in stats}
     names = {d: (d.split(" / ", 1)[1] if len(bases) == 1 and " / " in d else d) for d in dets}
-    case_list = C._ordered(s.case for s in stats)
+    case_list = C.reading_order(s.case for s in stats)
     by = {(s.case, s.variant): s for s in stats}
     n = len(dets)
     Figure, Canvas = F.figure_class()

@@ -7,6 +7,7 @@ either one. Only what the messages themselves carry is filled in: scenario and s
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, Sequence
 
@@ -14,6 +15,7 @@ import numpy as np
 
 from fsw.interface import messages as m
 from ground.report.run_data import DAY_S, RunData, declared_epoch
+from ground.report.summary_types import AnomalyBlock
 
 
 def _weights(data: RunData) -> dict[str, dict[str, Any]]:
@@ -40,7 +42,7 @@ def _weights(data: RunData) -> dict[str, dict[str, Any]]:
 
 
 def anomaly_summary(reports: Sequence[m.AnomalyReport], *, onset_true: float | None, true_class: str,
-                    t0: float) -> dict[str, Any]:
+                    t0: float) -> AnomalyBlock:
     """The ``anomaly`` block of a summary from a detector's reports, in time order.
 
     ``reports`` are the AnomalyReport messages of the onboard detector, or those of a detector
@@ -52,34 +54,30 @@ def anomaly_summary(reports: Sequence[m.AnomalyReport], *, onset_true: float | N
     declaration − true onset.
     """
     first = next((r for r in reports if r.flag), None)
-    anomaly: dict[str, Any] = {
-        "detector": bool(reports),
-        "declared": first is not None,
-        "time": None, "time_day": None, "onset_true": onset_true,
-        "onset_true_day": None if onset_true is None else (onset_true - t0) / DAY_S,
-        "onset_estimate": None, "latency_s": None, "class": "none", "true_class": true_class,
-        "confidence": 0.0, "network": reports[-1].network if reports else None,
-        "false_alarm": False, "correct_class": None, "final_flag": bool(reports[-1].flag) if reports else False,
-        "final_class": reports[-1].anomaly_class if reports else "none",
-    }
-    if first is not None:
-        t_decl = declared_epoch(first)
-        last_flagged = [r for r in reports if r.flag][-1]
-        anomaly.update({
-            "time": t_decl, "time_day": (t_decl - t0) / DAY_S, "onset_estimate": first.onset_s,
-            "class": last_flagged.anomaly_class, "first_class": first.anomaly_class,
-            "confidence": float(last_flagged.confidence), "network": first.network,
-        })
-        if onset_true is None or t_decl < onset_true:
-            anomaly["false_alarm"] = True
-        else:
-            anomaly["latency_s"] = t_decl - onset_true
-            anomaly["latency_day"] = (t_decl - onset_true) / DAY_S
-        anomaly["correct_class"] = anomaly["class"] == true_class
-    return anomaly
+    block = AnomalyBlock(
+        detector=bool(reports), declared=first is not None,
+        time=None, time_day=None, onset_true=onset_true,
+        onset_true_day=None if onset_true is None else (onset_true - t0) / DAY_S,
+        onset_estimate=None, latency_s=None, anomaly_class="none", true_class=true_class,
+        confidence=0.0, network=reports[-1].network if reports else None,
+        false_alarm=False, correct_class=None, final_flag=bool(reports[-1].flag) if reports else False,
+        final_class=reports[-1].anomaly_class if reports else "none",
+    )
+    if first is None:
+        return block
+    t_decl = declared_epoch(first)
+    last_flagged = [r for r in reports if r.flag][-1]
+    false_alarm = onset_true is None or t_decl < onset_true
+    return dataclasses.replace(
+        block, time=t_decl, time_day=(t_decl - t0) / DAY_S, onset_estimate=first.onset_s,
+        anomaly_class=last_flagged.anomaly_class, first_class=first.anomaly_class,
+        confidence=float(last_flagged.confidence), network=first.network, false_alarm=false_alarm,
+        latency_s=None if false_alarm else t_decl - onset_true,
+        latency_day=None if false_alarm else (t_decl - onset_true) / DAY_S,
+        correct_class=last_flagged.anomaly_class == true_class)
 
 
-def _anomaly(data: RunData) -> dict[str, Any]:
+def _anomaly(data: RunData) -> AnomalyBlock:
     starts = data.fault_starts
     true_class = min(starts, key=lambda e: e.t_s).fault_class if starts else "none"
     reports = list(data.anomaly.reports) if data.anomaly is not None else []
@@ -114,7 +112,7 @@ def run_facts(data: RunData) -> dict[str, Any]:
         "scenario": None,
         "seed": None,
         "run_id": data.run_id,
-        "fault": {"preset": None, "class": _anomaly(data)["true_class"],
+        "fault": {"preset": None, "class": _anomaly(data).true_class,
                   "events": [{"id": e.fault_id, "type": e.fault_type, "event": e.event, "t_s": e.t_s,
                               "day": (e.t_s - data.t0) / DAY_S, "magnitude": dict(e.magnitude)} for e in data.faults]},
         "measurements": {"published": published, "processed": int(counts.get("processed", 0)),
@@ -122,7 +120,7 @@ def run_facts(data: RunData) -> dict[str, Any]:
                          "by_kind": {k: len(t) for k, (t, _) in data.measurements.items()}},
         "filters": list(data.filters),
         "gating": _weights(data),
-        "anomaly": _anomaly(data),
+        "anomaly": _anomaly(data).to_json(),
         "position_error_rms_km": pos_rms,
         "position_error_final_km": pos_final,
         "position_within_3sigma": within,

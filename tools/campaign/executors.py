@@ -23,17 +23,18 @@ import uuid
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
-from tools.campaign.worker import execute
+from tools.campaign.task import RunTask
+from tools.campaign.worker import RunOutcome, execute
 
 #: (handle, result or None, exception or None)
-Completion = tuple[Any, "dict | None", "BaseException | None"]
+Completion = tuple[Any, "RunOutcome | None", "BaseException | None"]
 
 
 class Executor(Protocol):
     name: str
     capacity: int
 
-    def submit(self, payload: dict) -> Any: ...
+    def submit(self, task: RunTask) -> Any: ...
     def wait(self, timeout: float) -> list[Completion]: ...
     def cancel(self) -> None: ...
     def close(self) -> None: ...
@@ -58,13 +59,13 @@ class LocalExecutor:
     def _new_pool(self) -> cf.ProcessPoolExecutor:
         return cf.ProcessPoolExecutor(max_workers=self.capacity, mp_context=self._ctx, initializer=_ignore_sigint)
 
-    def submit(self, payload: dict) -> cf.Future:
+    def submit(self, task: RunTask) -> cf.Future:
         if self._broken:
             # a worker died hard (killed, out of memory): the pool is unusable, start a fresh one
             self._pool.shutdown(wait=False, cancel_futures=True)
             self._pool = self._new_pool()
             self._broken = False
-        fut = self._pool.submit(execute, payload)
+        fut = self._pool.submit(execute, task)
         self._futures.add(fut)
         return fut
 
@@ -123,9 +124,9 @@ class DaskExecutor:
         self.capacity = max(1, sum(nthreads.values())) if nthreads else max(1, int(workers))
         self._futures: set = set()
 
-    def submit(self, payload: dict) -> Any:
-        key = f"navbank-run-{payload['id']}-{uuid.uuid4().hex[:8]}"
-        fut = self.client.submit(execute, payload, key=key, pure=False, retries=0)
+    def submit(self, task: RunTask) -> Any:
+        key = f"navbank-run-{task.id}-{uuid.uuid4().hex[:8]}"
+        fut = self.client.submit(execute, task, key=key, pure=False, retries=0)
         self._futures.add(fut)
         return fut
 

@@ -26,57 +26,11 @@ from fsw.interface import typed
 from fsw.interface.typed import DecodeError
 from fsw.interface.yamlconfig import ConfigError, load_file
 from sim.faults.presets import preset
+from ground.report.row_types import Cell
+from tools.campaign.plan_file import PlanFile, PlannedCell, PlannedRun
 from tools.campaign.spec import FaultCase, LoadedCampaign, NetworkVariant
+from tools.campaign.task import RunTask
 from tools.scenario import ScenarioConfig, builtin_names, load_scenario
-
-
-@dataclass(frozen=True)
-class Cell:
-    """One cell of the matrix: scenario x fault case x network variant."""
-
-    scenario: str
-    fault: str
-    variant: str
-
-    @property
-    def key(self) -> str:
-        return f"{self.scenario} / {self.fault} / {self.variant}"
-
-    def as_dict(self) -> dict[str, str]:
-        return {"scenario": self.scenario, "fault": self.fault, "variant": self.variant}
-
-
-@dataclass(frozen=True)
-class RunTask:
-    """One run: its cell, seed and fully resolved scenario (as plain data, cheap to ship)."""
-
-    id: str
-    cell: Cell
-    seed: int
-    scenario: dict
-    fault_label: str | None
-    fault_class: str
-    detector_network: str
-    detector_calibrated: bool
-    span_days: float
-    extract_weights: tuple[str, ...] = ()
-    monitors: dict[str, dict] = field(default_factory=dict)
-
-    def payload(self) -> dict:
-        """What the worker needs (plain data: pickles the same for a process pool and for dask)."""
-        return {
-            "id": self.id, "cell": self.cell.as_dict(), "seed": self.seed, "scenario": self.scenario,
-            "fault_label": self.fault_label, "fault_class": self.fault_class,
-            "detector": self._detector(),
-            "span_days": self.span_days, "extract_weights": list(self.extract_weights),
-            "monitors": self.monitors,
-        }
-
-    def _detector(self) -> dict:
-        out: dict[str, Any] = {"network": self.detector_network, "calibrated": self.detector_calibrated}
-        if self.monitors:
-            out["monitors"] = list(self.monitors)
-        return out
 
 
 @dataclass
@@ -86,18 +40,16 @@ class CampaignPlan:
     tasks: list[RunTask]
     cells: list[Cell] = field(default_factory=list)
 
-    def _cell_facts(self, cell: Cell) -> dict:
+    def _planned_cell(self, cell: Cell) -> PlannedCell:
         t = next((t for t in self.tasks if t.cell == cell), None)
-        if t is None:
-            return {}
-        return {"fault_class": t.fault_class, "detector": t._detector()}
+        return PlannedCell(scenario=cell.scenario, fault=cell.fault, variant=cell.variant, key=cell.key,
+                           fault_class=t.fault_class if t else None, detector=t.detector if t else None)
 
-    def to_json(self) -> dict:
-        return {
-            "name": self.name, "description": self.description,
-            "cells": [c.as_dict() | {"key": c.key} | self._cell_facts(c) for c in self.cells],
-            "runs": [{"id": t.id, "cell": t.cell.key, "seed": t.seed} for t in self.tasks],
-        }
+    def plan_file(self) -> PlanFile:
+        """What ``plan.json`` holds."""
+        return PlanFile(name=self.name, description=self.description,
+                        cells=tuple(self._planned_cell(c) for c in self.cells),
+                        runs=tuple(PlannedRun(id=t.id, cell=t.cell.key, seed=t.seed) for t in self.tasks))
 
 
 def run_id(scenario_data: dict, seed: int, monitors: dict | None = None) -> str:

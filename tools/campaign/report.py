@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from tools.campaign.stats_records import Binomial, CampaignStats, CellStats
 
 NOMINAL = "none"
 
@@ -11,7 +11,7 @@ def _pct(x: float | None) -> str:
     return "n/a" if x is None else f"{100.0 * x:.1f} %"
 
 
-def _ci(ci: list[float] | None, scale: float = 100.0, fmt: str = "{:.1f}") -> str:
+def _ci(ci: tuple[float, ...] | None, scale: float = 100.0, fmt: str = "{:.1f}") -> str:
     if ci is None:
         return ""
     return f" [{fmt.format(scale * ci[0])}, {fmt.format(scale * ci[1])}]"
@@ -27,37 +27,37 @@ def _table(header: list[str], rows: list[list[str]]) -> list[str]:
     return out + [""]
 
 
-def _binom(b: dict | None) -> str:
-    if not b or b.get("n", 0) == 0:
+def _binom(b: Binomial | None) -> str:
+    if not b or b.n == 0:
         return "n/a"
-    return f"{b['k']}/{b['n']} = {_pct(b['rate'])}{_ci(b['ci'])}"
+    return f"{b.k}/{b.n} = {_pct(b.rate)}{_ci(b.ci)}"
 
 
-def _short_binom(b: dict | None) -> str:
-    if not b or b.get("n", 0) == 0:
+def _short_binom(b: Binomial | None) -> str:
+    if not b or b.n == 0:
         return "n/a"
-    return f"{b['k']}/{b['n']} {_pct(b['rate'])}{_ci(b['ci'], 100.0, '{:.0f}')}"
+    return f"{b.k}/{b.n} {_pct(b.rate)}{_ci(b.ci, 100.0, '{:.0f}')}"
 
 
-def _side_by_side(cells: list[dict]) -> list[str]:
+def _side_by_side(cells: tuple[CellStats, ...]) -> list[str]:
     """Per scenario and variant with several detectors (monitors): one table, fault cases down,
     detectors across, so the networks read side by side."""
-    groups: dict[tuple[str, str], list[dict]] = {}
+    groups: dict[tuple[str, str], list[CellStats]] = {}
     for c in cells:
-        if "base_variant" in c:
-            groups.setdefault((c["scenario"], c["base_variant"]), []).append(c)
+        if c.base_variant is not None:
+            groups.setdefault((c.scenario, c.base_variant), []).append(c)
     lines: list[str] = []
     for (scenario, variant), group in groups.items():
         nets: list[str] = []
         for c in group:
-            label = c["variant"].removeprefix(f"{variant} / ")
+            label = c.variant.removeprefix(f"{variant} / ")
             if label not in nets:
                 nets.append(label)
         faults: list[str] = []
         for c in group:
-            if c["fault"] not in faults:
-                faults.append(c["fault"])
-        by = {(c["fault"], c["variant"].removeprefix(f"{variant} / ")): c for c in group}
+            if c.fault not in faults:
+                faults.append(c.fault)
+        by = {(c.fault, c.variant.removeprefix(f"{variant} / ")): c for c in group}
         lines += [f"### {scenario} / {variant}: {', '.join(nets)}", "",
                   "P_D for faulted cases, false alarms per run for the nominal case (k/n, rate, "
                   "95 % interval); then latency median / p90 [h] and the correct-class rate among detections.", ""]
@@ -66,26 +66,27 @@ def _side_by_side(cells: list[dict]) -> list[str]:
             c = by.get((fault, net))
             if c is None:
                 return "—"
-            if c["fault_class"] == NOMINAL:
-                fa = c.get("false_alarm") or {}
-                per_day = fa.get("per_day") or {}
-                day = "" if per_day.get("per_day") is None else f"; {per_day['per_day']:.3g}/day"
-                return "FA " + _short_binom(fa.get("per_run")) + day
-            return _short_binom(c.get("detection"))
+            if c.nominal:
+                fa = c.false_alarm
+                per_day = fa.per_day if fa else None
+                day = "" if per_day is None or per_day.per_day is None else f"; {per_day.per_day:.3g}/day"
+                return "FA " + _short_binom(fa.per_run if fa else None) + day
+            return _short_binom(c.detection)
 
         def lat_text(fault: str, net: str) -> str:
             c = by.get((fault, net))
-            lat = (c or {}).get("latency") or {}
+            lat = c.latency if c is not None else None
             if not lat:
                 return "—"
-            return f"{lat['median_h']:.1f} / {lat['p90_h']:.1f}"
+            return f"{lat.median_h:.1f} / {lat.p90_h:.1f}"
 
         def cls_text(fault: str, net: str) -> str:
             c = by.get((fault, net))
-            return "—" if c is None or c["fault_class"] == NOMINAL else _short_binom(c.get("characterization"))
+            return "—" if c is None or c.nominal else _short_binom(c.characterization)
 
         lines += _table(["fault", *nets], [[f, *[cell_text(f, n) for n in nets]] for f in faults])
-        faulted = [f for f in faults if any((by.get((f, n)) or {}).get("fault_class") != NOMINAL for n in nets)]
+        # a detector without a cell for the fault counts as faulted: its column then reads "—"
+        faulted = [f for f in faults if any(by.get((f, n)) is None or not by[(f, n)].nominal for n in nets)]
         if faulted:
             lines += ["latency median / p90 [h]:", ""]
             lines += _table(["fault", *nets], [[f, *[lat_text(f, n) for n in nets]] for f in faulted])
@@ -94,105 +95,104 @@ def _side_by_side(cells: list[dict]) -> list[str]:
     return lines
 
 
-def render(s: dict[str, Any]) -> str:
-    level = int(round(100 * s.get("confidence_level", 0.95)))
-    runs = s["runs"]
-    lines = [f"# Campaign {s.get('campaign') or ''}".rstrip(), ""]
-    if s.get("description"):
-        lines += [s["description"], ""]
-    planned = "" if runs.get("planned") is None else f" of {runs['planned']} planned"
-    lines += [f"Runs: {runs['ok']} ok, {runs['failed']} failed{planned}"
-              + ("" if not runs.get("missing") else f", {runs['missing']} not run yet")
-              + f"; total run time {runs.get('wall_time_s_total', 0.0) / 60:.1f} min. "
+def render(s: CampaignStats) -> str:
+    level = int(round(100 * s.confidence_level))
+    runs = s.runs
+    lines = [f"# Campaign {s.campaign or ''}".rstrip(), ""]
+    if s.description:
+        lines += [s.description, ""]
+    planned = "" if runs.planned is None else f" of {runs.planned} planned"
+    lines += [f"Runs: {runs.ok} ok, {runs.failed} failed{planned}"
+              + ("" if not runs.missing else f", {runs.missing} not run yet")
+              + f"; total run time {runs.wall_time_s_total / 60:.1f} min. "
               f"Intervals are {level} % (Clopper–Pearson for proportions, exact Poisson for rates).", ""]
 
     lines += ["## Detection", ""]
     hdr = ["scenario", "fault", "variant", "detector", "runs", "P_D", "false alarms / run", "false alarms / day",
            "latency median [h]", "latency p90 [h]", "correct class"]
     rows = []
-    for c in s["cells"]:
-        det = c.get("detector", {})
-        dname = det.get("network") or "?"
-        if not det.get("calibrated", True):
+    for c in s.cells:
+        dname = c.detector.network or "?"
+        if not c.detector.can_declare:
             dname += " (uncalibrated)"
-        fa = c.get("false_alarm") or {}
-        per_day = fa.get("per_day")
-        lat = c.get("latency") or {}
+        fa = c.false_alarm
+        per_day = fa.per_day if fa else None
+        lat = c.latency
         rows.append([
-            c["scenario"], c["fault"], c["variant"], dname,
-            f"{c['runs']['ok']}" + (f" (+{c['runs']['failed']} failed)" if c["runs"]["failed"] else ""),
-            "—" if c["fault_class"] == "none" else _binom(c.get("detection")),
-            _binom(fa.get("per_run")),
-            "—" if not per_day or per_day.get("per_day") is None else
-            f"{per_day['per_day']:.3g}{_ci(per_day['ci'], 1.0, '{:.3g}')}",
-            _num(lat.get("median_h"), "{:.1f}"), _num(lat.get("p90_h"), "{:.1f}"),
-            "—" if c["fault_class"] == "none" else _binom(c.get("characterization")),
+            c.scenario, c.fault, c.variant, dname,
+            f"{c.runs.ok}" + (f" (+{c.runs.failed} failed)" if c.runs.failed else ""),
+            "—" if c.nominal else _binom(c.detection),
+            _binom(fa.per_run if fa else None),
+            "—" if per_day is None or per_day.per_day is None else
+            f"{per_day.per_day:.3g}{_ci(per_day.ci, 1.0, '{:.3g}')}",
+            _num(lat.median_h if lat else None, "{:.1f}"), _num(lat.p90_h if lat else None, "{:.1f}"),
+            "—" if c.nominal else _binom(c.characterization),
         ])
     lines += _table(hdr, rows)
 
-    side = _side_by_side(s["cells"])
+    side = _side_by_side(s.cells)
     if side:
         lines += ["## Detectors side by side (one set of runs, several networks)", "", *side]
 
-    if s.get("confusion"):
+    if s.confusion:
         lines += ["## Characterization (rows: injected class, columns: diagnosed class)", ""]
-        for g in s["confusion"]:
-            lines += [f"**{g['scenario']} / {g['variant']}** (detector {g['detector']})", ""]
-            lines += _table(["injected \\ diagnosed", *g["diagnosed_classes"]],
-                            [[t, *[str(g["matrix"][t][d]) for d in g["diagnosed_classes"]]] for t in g["true_classes"]])
+        for g in s.confusion:
+            lines += [f"**{g.scenario} / {g.variant}** (detector {g.detector})", ""]
+            lines += _table(["injected \\ diagnosed", *g.diagnosed_classes],
+                            [[t, *[str(g.matrix[t][d]) for d in g.diagnosed_classes]] for t in g.true_classes])
 
-    if s.get("weight_tables"):
+    if s.weight_tables:
         lines += ["## Mean gating weights (full arc; seed 001 Tables 3 and 4 layout)", ""]
-        for t in s["weight_tables"]:
-            f = t["filters"]
-            lines += [f"**{t['network']}** — {t['scenario']} / {t['variant']}", ""]
+        for t in s.weight_tables:
+            f = t.filters
+            lines += [f"**{t.network}** — {t.scenario} / {t.variant}", ""]
             body = [["Ideal", *[f"{1.0 / len(f):.4f}"] * len(f)]]
-            body += [[r["case"], *[_num((r["mean"] or {}).get(x), "{:.4f}") for x in f]] for r in t["rows"]]
+            body += [[r.case, *[_num((r.mean or {}).get(x), "{:.4f}") for x in f]] for r in t.rows]
             lines += _table(["case", *f], body)
-            after = [r for r in t["rows"] if r.get("after_onset")]
+            after = [r for r in t.rows if r.after_onset]
             if after:
-                lines += [f"after the fault onset ({t['network']}):", ""]
-                lines += _table(["case", *f], [[r["case"], *[_num(r["after_onset"].get(x), "{:.4f}") for x in f]]
+                lines += [f"after the fault onset ({t.network}):", ""]
+                lines += _table(["case", *f], [[r.case, *[_num(r.after_onset.get(x), "{:.4f}") for x in f]]
                                                for r in after])
 
     lines += ["## Position error RMS [km] (mean / median / max over seeds)", ""]
     labels: list[str] = []
-    for c in s["cells"]:
-        labels += [x for x in c.get("position_error_rms_km", {}) if x not in labels]
+    for c in s.cells:
+        labels += [x for x in c.position_error_rms_km if x not in labels]
     rows = []
-    real_cells = [c for c in s["cells"] if not c.get("monitor")]  # a monitor cell repeats its runs
+    real_cells = [c for c in s.cells if not c.monitor]  # a monitor cell repeats its runs
     for c in real_cells:
-        pe = c.get("position_error_rms_km", {})
-        rows.append([c["key"], *["n/a" if not pe.get(x) else
-                                 f"{pe[x]['mean']:.3g} / {pe[x]['median']:.3g} / {pe[x]['max']:.3g}" for x in labels]])
+        pe = c.position_error_rms_km
+        rows.append([c.key, *["n/a" if not pe.get(x) else
+                              f"{pe[x].mean:.3g} / {pe[x].median:.3g} / {pe[x].max:.3g}" for x in labels]])
     lines += _table(["cell", *labels], rows)
 
     lines += ["## Budget and run time", ""]
     rows = []
     for c in real_cells:
-        b = c.get("budget", {})
-        w = c.get("wall_time_s") or {}
-        rows.append([c["key"], _num(b.get("max_utilisation"), "{:.3f}"), str(b.get("overruns_total", 0)),
-                     str(b.get("runs_with_overruns", 0)), _num(b.get("final_backlog_max"), "{:.0f}"),
-                     _num(w.get("mean"), "{:.1f}"), _num(w.get("max"), "{:.1f}")])
+        b = c.budget
+        w = c.wall_time_s
+        rows.append([c.key, _num(b.max_utilisation, "{:.3f}"), str(b.overruns_total),
+                     str(b.runs_with_overruns), _num(b.final_backlog_max, "{:.0f}"),
+                     _num(w.mean if w else None, "{:.1f}"), _num(w.max if w else None, "{:.1f}")])
     lines += _table(["cell", "max utilisation", "overruns", "runs with overruns", "max final backlog",
                      "wall time mean [s]", "wall time max [s]"], rows)
 
     failures, seen_failed = [], set()
-    for c in s["cells"]:  # a failed run appears once, under its first detector
-        for f in c.get("failed", []):
-            if f["id"] not in seen_failed:
-                failures.append((c["key"], f))
-            seen_failed.add(f["id"])
+    for c in s.cells:  # a failed run appears once, under its first detector
+        for f in c.failed:
+            if f.id not in seen_failed:
+                failures.append((c.key, f))
+            seen_failed.add(f.id)
     if failures:
         lines += ["## Failed runs", ""]
         lines += _table(["cell", "seed", "id", "error"],
-                        [[k, str(f["seed"]), f["id"], f"{f['type']}: {f['message']}".replace("|", "\\|")]
+                        [[k, str(f.seed), f.id, f"{f.type}: {f.message}".replace("|", "\\|")]
                          for k, f in failures])
     uncal: dict[str, int] = {}
-    for c in s["cells"]:
-        if c.get("note"):
-            net = (c.get("detector") or {}).get("network") or "?"
+    for c in s.cells:
+        if c.note:
+            net = c.detector.network or "?"
             uncal[net] = uncal.get(net, 0) + 1
     notes = [f"- detector network {net!r} is not calibrated in {n} cell(s): it cannot declare, so detection "
              "and false-alarm statistics are n/a (calibrate it with `navbank calibrate`)" for net, n in uncal.items()]

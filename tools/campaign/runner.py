@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import threading
 import time
@@ -22,10 +23,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, TextIO
 
+from ground.report.row_types import ResultRow
 from tools.campaign.executors import Executor
-from tools.campaign.plan import CampaignPlan, RunTask
+from tools.campaign.plan import CampaignPlan
 from tools.campaign.progress import ProgressLine
 from tools.campaign.store import PLAN, RunStore, write_json_atomic
+from tools.campaign.task import RunTask
 from tools.campaign.worker import base_row, error_record
 
 POLL_S = 0.5
@@ -51,10 +54,10 @@ class CampaignOutcome:
         return 60.0 * self.finished / self.wall_s if self.wall_s > 0 else 0.0
 
 
-def select_tasks(plan: CampaignPlan, latest: dict[str, dict], rerun_failed: bool) -> list[RunTask]:
+def select_tasks(plan: CampaignPlan, latest: dict[str, ResultRow], rerun_failed: bool) -> list[RunTask]:
     """The runs to do now: missing ones, or (``rerun_failed``) those whose latest row failed."""
     if rerun_failed:
-        return [t for t in plan.tasks if t.id in latest and latest[t.id].get("status") != "ok"]
+        return [t for t in plan.tasks if t.id in latest and latest[t.id].status != "ok"]
     return [t for t in plan.tasks if t.id not in latest]
 
 
@@ -78,17 +81,15 @@ class _Interrupts:
             signal.signal(signal.SIGINT, self._prev)
 
 
-def _executor_failure_row(task: RunTask, exc: BaseException, campaign: str, executor: str) -> dict:
-    row = base_row(task.payload())
-    row.update({"campaign": campaign, "executor": executor, "status": "failed", "error": error_record(exc),
-                "summary": None, "wall_time_s": None,
-                "finished_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())})
-    return row
+def _executor_failure_row(task: RunTask, exc: BaseException, campaign: str, executor: str) -> ResultRow:
+    return dataclasses.replace(base_row(task), campaign=campaign, executor=executor, status="failed",
+                               error=error_record(exc), summary=None, wall_time_s=None,
+                               finished_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
 
 
 def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | Callable[[], Executor], *,
                  rerun_failed: bool = False,
-                 progress_stream: TextIO | None = None, on_row: Callable[[dict], None] | None = None,
+                 progress_stream: TextIO | None = None, on_row: Callable[[ResultRow], None] | None = None,
                  quiet: bool = False) -> CampaignOutcome:
     """Run the plan's missing (or failed) runs into ``out_dir``; see the module docstring.
 
@@ -100,7 +101,7 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
     store = RunStore(out_dir)
     out.repaired_bytes = store.open()
     try:
-        write_json_atomic(Path(out_dir) / PLAN, plan.to_json())
+        write_json_atomic(Path(out_dir) / PLAN, plan.plan_file().to_json())
         latest = store.read().latest()
         tasks = select_tasks(plan, latest, rerun_failed)
         out.skipped = len(plan.tasks) - len(tasks)
@@ -122,7 +123,7 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
                 if intr.count == 0:
                     while pending and len(inflight) < executor.capacity:
                         task = pending.popleft()
-                        inflight[executor.submit(task.payload())] = task
+                        inflight[executor.submit(task)] = task
                         out.submitted += 1
                 elif not announced:
                     announced = True
@@ -143,12 +144,11 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
                             continue  # not the run's fault: no row, a resumed campaign runs it again
                         row = _executor_failure_row(task, exc, plan.name, executor.name)
                     else:
-                        row = result["row"]
-                        row.update({"campaign": plan.name, "executor": executor.name})
-                        if result.get("weights") is not None and row["status"] == "ok":
-                            store.save_weights(task.id, result["weights"])
+                        row = dataclasses.replace(result.row, campaign=plan.name, executor=executor.name)
+                        if result.weights is not None and row.status == "ok":
+                            store.save_weights(task.id, result.weights)
                     store.append(row)
-                    ok = row["status"] == "ok"
+                    ok = row.status == "ok"
                     out.finished += 1
                     if not ok:
                         out.failed += 1

@@ -21,6 +21,10 @@ from typing import Any
 
 import numpy as np
 
+from fsw.interface.typed import DecodeError
+from ground.report.row_types import ResultRow
+from ground.report.run_weights import RunWeights
+
 RUNS = "runs.jsonl"
 PLAN = "plan.json"
 WEIGHTS = "weights"
@@ -41,26 +45,27 @@ def _clean(value: Any) -> Any:
     return value
 
 
-def encode_row(row: dict) -> bytes:
-    return (json.dumps(_clean(row), separators=(",", ":"), allow_nan=False) + "\n").encode("utf-8")
+def encode_row(row: ResultRow) -> bytes:
+    return (json.dumps(_clean(row.to_json()), separators=(",", ":"), allow_nan=False) + "\n").encode("utf-8")
 
 
 @dataclass
 class ReadResult:
-    rows: list[dict] = field(default_factory=list)
+    rows: list[ResultRow] = field(default_factory=list)
     torn_tail: bool = False
     bad_lines: int = 0
 
-    def latest(self) -> dict[str, dict]:
+    def latest(self) -> dict[str, ResultRow]:
         """The last row of every id (later rows supersede earlier ones)."""
-        out: dict[str, dict] = {}
+        out: dict[str, ResultRow] = {}
         for row in self.rows:
-            out[row["id"]] = row
+            out[row.id] = row
         return out
 
 
 def read_rows(path: str | Path) -> ReadResult:
-    """All whole rows of a runs file; a torn last line and unreadable lines are skipped (counted)."""
+    """All whole rows of a runs file; a torn last line and unreadable lines (not JSON, or not a
+    result row) are skipped (counted)."""
     path = Path(path)
     out = ReadResult()
     if not path.exists():
@@ -76,13 +81,8 @@ def read_rows(path: str | Path) -> ReadResult:
         if not raw.strip():
             continue
         try:
-            row = json.loads(raw)
-        except (json.JSONDecodeError, UnicodeDecodeError):
-            out.bad_lines += 1
-            continue
-        if isinstance(row, dict) and isinstance(row.get("id"), str):
-            out.rows.append(row)
-        else:
+            out.rows.append(ResultRow.from_json(json.loads(raw)))
+        except (json.JSONDecodeError, UnicodeDecodeError, DecodeError):
             out.bad_lines += 1
     return out
 
@@ -130,7 +130,7 @@ class RunStore:
         self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
         return cut
 
-    def append(self, row: dict) -> None:
+    def append(self, row: ResultRow) -> None:
         """Write one row as one line, then fsync."""
         if self._fd is None:
             raise RuntimeError("RunStore.append before open")
@@ -141,18 +141,15 @@ class RunStore:
             view = view[n:]
         os.fsync(self._fd)
 
-    def save_weights(self, run_id: str, histories: dict[str, dict[str, Any]]) -> list[Path]:
+    def save_weights(self, run_id: str, histories: dict[str, RunWeights]) -> list[Path]:
         """Store each network's weight history as ``weights/<network>/<run_id>.npz`` (atomic)."""
         paths = []
-        for network, arrays in histories.items():
+        for network, history in histories.items():
             wdir = self.dir / WEIGHTS / network
             wdir.mkdir(parents=True, exist_ok=True)
             final = wdir / f"{run_id}.npz"
             tmp = wdir / f".{run_id}.tmp.npz"
-            np.savez(tmp, filters=np.array(arrays["filters"], dtype=str), t_s=arrays["t_s"],
-                     batch=arrays["batch"], weights=arrays["weights"], groups=arrays.get("groups", np.zeros((0, 0))),
-                     group_names=np.array(arrays.get("group_names", []), dtype=str),
-                     statistic=arrays.get("statistic", np.zeros((0, 0))))
+            history.save(tmp)
             with open(tmp, "rb") as fh:
                 os.fsync(fh.fileno())
             os.replace(tmp, final)
@@ -175,10 +172,9 @@ class RunStore:
         self.close()
 
 
-def load_weights(directory: str | Path, run_id: str, network: str) -> dict[str, np.ndarray]:
+def load_weights(directory: str | Path, run_id: str, network: str) -> RunWeights:
     """One network's stored weight history of one run (see :meth:`RunStore.save_weights`)."""
-    with np.load(Path(directory) / WEIGHTS / network / f"{run_id}.npz", allow_pickle=False) as data:
-        return {k: data[k] for k in data.files}
+    return RunWeights.load(Path(directory) / WEIGHTS / network / f"{run_id}.npz")
 
 
 def has_weights(directory: str | Path, run_id: str, network: str) -> bool:

@@ -1,15 +1,17 @@
 """What a campaign worker does with one run: fly it in process and return one result row.
 
 The function is importable by name (``tools.campaign.worker.execute``) so a spawned process pool
-and a dask worker run the same code. Its input and output are plain data: the row (the run's
-summary, id, cell, seed, status, error, wall time) and, on request, gating networks' weight
-histories as compact arrays — never the run's messages, which are ~10^5 objects for a 45-day run.
+and a dask worker run the same code. Its input and output are declared records: a
+:class:`~tools.campaign.task.RunTask` in, a :class:`RunOutcome` out — the
+:class:`~ground.report.row_types.ResultRow` (the run's summary, id, cell, seed, status, error, wall
+time) and, on request, gating networks' weight histories as compact arrays — never the run's
+messages, which are ~10^5 objects for a 45-day run.
 
-Monitors (``payload["monitors"]``: network -> detector calibration) are further anomaly
+Monitors (``task.monitors``: network -> detector calibration) are further anomaly
 detectors evaluated on the same run: each network's FilterWeights stream is replayed, in order,
 through a fresh :class:`~fsw.fdir.detector.AnomalyDetector` built exactly as the FSW builds its own
-(the calibration and the bank's family tags), and ``summary["monitors"][network]`` gets the same
-block as ``summary["anomaly"]`` (one definition: :func:`ground.report.run_facts.anomaly_summary`).
+(the calibration and the bank's family tags), and ``summary.monitors[network]`` gets the same
+block as ``summary.anomaly`` (one definition: :func:`ground.report.run_facts.anomaly_summary`).
 
 Any exception raised by the run itself is caught here and becomes a ``failed`` row with the error
 type, message and the tail of the traceback: one bad run never stops a campaign.
@@ -17,11 +19,13 @@ type, message and the tail of the traceback: one bad run never stops a campaign.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import socket
 import time
 import traceback
-from typing import Any, Sequence
+from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -31,33 +35,34 @@ from fsw.fdir.detector import AnomalyDetector
 from fsw.fdir.errors import FdirInputError
 from fsw.fdir.families import FilterFamily
 from fsw.interface import messages as m, topics, typed
+from ground.report.row_types import ResultRow
+from ground.report.run_facts import anomaly_summary
+from ground.report.run_weights import RunWeights
+from ground.report.summary_types import ErrorRecord, MonitorBlock
+from tools.campaign.task import RunTask
 from tools.inprocess import RunResult, run_in_process
 from tools.scenario import ScenarioConfig
-from ground.report.run_facts import anomaly_summary
 
 TRACEBACK_LINES = 12
 
 
-def weight_history(result: RunResult, network: str) -> dict[str, Any]:
-    """The FilterWeights history of ``network``: filter names, epochs, batch indices, weights,
-    per-filter statistics and (hierarchical networks) the top-level weight of each bank."""
+def weight_history(result: RunResult, network: str) -> RunWeights:
+    """The FilterWeights history of ``network`` in the run."""
     msgs = result.topic(f"{topics.FSW_WEIGHTS}/{network}")
     if not msgs:
-        return {"filters": [], "t_s": np.zeros(0), "batch": np.zeros(0, dtype=np.int64),
-                "weights": np.zeros((0, 0)), "statistic": np.zeros((0, 0)), "group_names": [],
-                "groups": np.zeros((0, 0))}
-    group_names = list(msgs[-1].groups)
+        return RunWeights.empty()
+    group_names = tuple(msgs[-1].groups)
     stat_len = len(msgs[-1].statistic)
-    return {
-        "filters": list(msgs[-1].filters),
-        "t_s": np.array([m.t_s for m in msgs], dtype=float),
-        "batch": np.array([m.batch for m in msgs], dtype=np.int64),
-        "weights": np.array([m.weights for m in msgs], dtype=float),
-        "statistic": np.array([m.statistic if len(m.statistic) == stat_len else (np.nan,) * stat_len
-                               for m in msgs], dtype=float),
-        "group_names": group_names,
-        "groups": np.array([[m.groups.get(g, np.nan) for g in group_names] for m in msgs], dtype=float),
-    }
+    return RunWeights(
+        filters=tuple(msgs[-1].filters),
+        t_s=np.array([m.t_s for m in msgs], dtype=float),
+        batch=np.array([m.batch for m in msgs], dtype=np.int64),
+        weights=np.array([m.weights for m in msgs], dtype=float),
+        statistic=np.array([m.statistic if len(m.statistic) == stat_len else (np.nan,) * stat_len
+                            for m in msgs], dtype=float),
+        group_names=group_names,
+        groups=np.array([[m.groups.get(g, np.nan) for g in group_names] for m in msgs], dtype=float),
+    )
 
 
 def replay_detector(messages: Sequence[tuple[str, object]], calibration: DetectorConfig,
@@ -94,57 +99,61 @@ def replay_detector(messages: Sequence[tuple[str, object]], calibration: Detecto
     return reports
 
 
-def monitor_summaries(result: RunResult, monitors: dict[str, dict]) -> dict[str, dict]:
-    """``summary["monitors"]``: the anomaly block of every monitored network of the run. A
-    detector that rejects the run's weights (another bank, bad values) gives ``{"error": ...}``
-    for that network instead of ending the run."""
-    a = result.summary["anomaly"]
+def monitor_summaries(result: RunResult, monitors: dict[str, dict]) -> dict[str, MonitorBlock]:
+    """``summary.monitors``: the anomaly block of every monitored network of the run. A detector
+    that rejects the run's weights (another bank, bad values) gives an error block for that
+    network instead of ending the run."""
+    a = result.summary.anomaly
     families = result.config.fsw.families()
-    t0 = float(result.summary["t0"])
-    out: dict[str, dict] = {}
+    t0 = float(result.summary.t0)
+    out: dict[str, MonitorBlock] = {}
     for net, cal_data in monitors.items():
         try:
             cal = typed.decode(DetectorConfig, cal_data)
             reports = replay_detector(result.messages, cal, families, t0)
         except (FdirInputError, ValueError, typed.DecodeError) as exc:
-            out[net] = {"error": error_record(exc)}
+            out[net] = MonitorBlock(error=error_record(exc))
             continue
-        out[net] = anomaly_summary(reports, onset_true=a["onset_true"], true_class=a["true_class"], t0=t0)
+        out[net] = MonitorBlock(anomaly=anomaly_summary(reports, onset_true=a.onset_true, true_class=a.true_class, t0=t0))
     return out
 
 
-def error_record(exc: BaseException) -> dict[str, str]:
+def error_record(exc: BaseException) -> ErrorRecord:
     tb = traceback.format_exception(type(exc), exc, exc.__traceback__)
     tail = "".join(tb).rstrip().splitlines()[-TRACEBACK_LINES:]
-    return {"type": type(exc).__name__, "message": str(exc), "traceback": "\n".join(tail)}
+    return ErrorRecord(type=type(exc).__name__, message=str(exc), traceback="\n".join(tail))
 
 
-def base_row(payload: dict) -> dict[str, Any]:
-    return {
-        "id": payload["id"], "cell": payload["cell"], "seed": payload["seed"],
-        "fault_class": payload["fault_class"], "detector": payload["detector"],
-        "span_days": payload["span_days"],
-    }
+def base_row(task: RunTask) -> ResultRow:
+    return ResultRow(id=task.id, cell=task.cell, seed=task.seed, fault_class=task.fault_class,
+                     detector=task.detector, span_days=task.span_days)
 
 
-def execute(payload: dict) -> dict[str, Any]:
-    """Run one campaign run; returns ``{"row": row, "weights": None | {network: arrays}}``."""
+@dataclass(frozen=True)
+class RunOutcome:
+    """What a worker hands back: the row, and the weight histories the task asked for."""
+
+    row: ResultRow
+    weights: dict[str, RunWeights] | None = None
+
+
+def execute(task: RunTask) -> RunOutcome:
+    """Run one campaign run (see the module docstring)."""
     t0 = time.perf_counter()
-    row = base_row(payload)
-    row.update({"host": socket.gethostname(), "pid": os.getpid()})
+    row = dataclasses.replace(base_row(task), host=socket.gethostname(), pid=os.getpid())
     weights = None
     try:
-        cfg = typed.decode(ScenarioConfig, payload["scenario"])
-        result = run_in_process(cfg, payload["seed"], fault_label=payload["fault_label"], run_id=payload["id"])
-        nets = payload.get("extract_weights") or ()
-        if nets:
-            weights = {net: weight_history(result, net) for net in nets}
-        if payload.get("monitors"):
-            result.summary["monitors"] = monitor_summaries(result, payload["monitors"])
-        row.update({"status": "ok", "error": None, "summary": result.summary})
+        cfg = typed.decode(ScenarioConfig, task.scenario)
+        result = run_in_process(cfg, task.seed, fault_label=task.fault_label, run_id=task.id)
+        if task.extract_weights:
+            weights = {net: weight_history(result, net) for net in task.extract_weights}
+        summary = result.summary
+        if task.monitors:
+            summary = dataclasses.replace(summary, monitors=monitor_summaries(result, task.monitors))
+        row = dataclasses.replace(row, status="ok", error=None, summary=summary)
         del result
     except Exception as exc:  # a failed run is data for the campaign, not the end of it
-        row.update({"status": "failed", "error": error_record(exc), "summary": None})
-    row["wall_time_s"] = time.perf_counter() - t0
-    row["finished_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-    return {"row": row, "weights": weights}
+        row = dataclasses.replace(row, status="failed", error=error_record(exc), summary=None)
+    return RunOutcome(dataclasses.replace(row, wall_time_s=time.perf_counter() - t0,
+                                          finished_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())),
+                      weights)

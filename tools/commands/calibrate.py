@@ -15,7 +15,7 @@ Procedure (this is how the calibrated values in the built-in scenarios are repro
 2. Weight histories. Each worker keeps only the FilterWeights of ``--network`` (topic
    ``fsw/weights/<network>``) and sends back one (batches x filters) array with the batch epochs;
    they are stored as ``RUNS_DIR/weights/<id>.npz``.
-3. Calibration: :func:`fsw.fdir.calibrate.calibrate` on those arrays (its module docstring gives
+3. Calibration: :func:`tools.calibration.thresholds.calibrate` on those arrays (its module docstring gives
    the statistics: nominal band, k-of-n critical values, empirical or Gumbel threshold, hysteresis
    and onset reference) with ``--target-fa`` per run (or per ``--segment-batches`` segment),
    ``--warmup``, ``--persistence K N``, ``--hold`` and ``--statistic``.
@@ -39,16 +39,15 @@ from pathlib import Path
 import numpy as np
 
 from fsw.config import DetectorSection, GatingEntry
-from fsw.fdir.calibrate import CalibrationReport, calibrate, false_alarm_prediction_interval
 from fsw.fdir.config import config_to_yaml
-from fsw.fdir.errors import CalibrationError
 from fsw.interface.yamlconfig import dump_yaml, load_text
+from tools.calibration.thresholds import CalibrationError, CalibrationReport, calibrate, false_alarm_prediction_interval
 from tools.campaign.plan import expand
 from tools.campaign.runner import run_campaign
 from tools.campaign.spec import CampaignConfig, FaultCase, LoadedCampaign, MatrixBlock, NetworkVariant, SeedPlan
 from tools.campaign.store import has_weights, load_weights, read_rows
-from tools.cli import UsageError
 from tools.commands.campaign import executor_factory
+from tools.commands.errors import UsageError
 from tools.scenario import ScenarioConfig, load_scenario
 
 NAME = "calibrate"
@@ -107,19 +106,19 @@ def collect_histories(runs_dir: Path, ids: list[str], network: str) -> tuple[lis
     histories, names, used = [], None, []
     for rid in ids:
         row = latest.get(rid)
-        if not row or row.get("status") != "ok":
+        if row is None or row.status != "ok":
             continue
         if not has_weights(runs_dir, rid, network):
             continue
         data = load_weights(runs_dir, rid, network)
-        filters = tuple(str(s) for s in data["filters"])
-        if data["weights"].size == 0:
+        filters = data.filters
+        if data.weights.size == 0:
             continue  # the network published nothing (a run shorter than one batch)
         if names is None:
             names = filters
         elif filters != names:
             raise CalibrationError(f"run {rid}: filters {filters} differ from {names}")
-        histories.append(np.asarray(data["weights"], dtype=float))
+        histories.append(np.asarray(data.weights, dtype=float))
         used.append(rid)
     return histories, names or (), used
 

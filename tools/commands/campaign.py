@@ -12,7 +12,7 @@ from tools.campaign.runner import run_campaign, select_tasks
 from tools.campaign.spec import builtin_names, load_campaign
 from tools.campaign.stats import compute_directory, write_outputs
 from tools.campaign.store import read_rows
-from tools.cli import UsageError
+from tools.commands.errors import UsageError
 
 NAME = "campaign"
 HELP = "run a Monte Carlo fault-injection campaign (scenarios x faults x gating networks x seeds)"
@@ -65,9 +65,9 @@ def _list() -> int:
 def _stats(directory: Path) -> int:
     summary = compute_directory(directory)
     s_path, r_path = write_outputs(directory, summary)
-    r = summary["runs"]
-    print(f"{directory}: {r['ok']} ok, {r['failed']} failed"
-          + ("" if r.get("missing") is None else f", {r['missing']} missing") + f"; wrote {s_path} and {r_path}")
+    r = summary.runs
+    print(f"{directory}: {r.ok} ok, {r.failed} failed"
+          + ("" if r.missing is None else f", {r.missing} missing") + f"; wrote {s_path} and {r_path}")
     return 0
 
 
@@ -114,4 +114,4 @@ def run(args) -> int:
     if outcome.interrupted:
         print("navbank campaign: interrupted; run the same command again to resume", file=sys.stderr)
         return 130
-    return 1 if summary["runs"]["failed"] else 0
+    return 1 if summary.runs.failed else 0

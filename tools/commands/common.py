@@ -7,7 +7,7 @@ import time
 import uuid
 
 from fsw.interface import topics
-from tools.cli import UsageError
+from tools.commands.errors import UsageError
 from tools.scenario import ScenarioConfig, load_scenario, with_fault
 
 

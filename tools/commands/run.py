@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from tools.cli import UsageError
+from tools.commands.errors import UsageError
 from tools.commands.common import add_scenario_arguments, new_run_id, run_id_arg, scenario_from_args
 from tools.launcher import RunFailed, launch, write_summary
 from tools.scenario import ScenarioConfig, resolve
@@ -60,7 +60,9 @@ def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, c
 
 def run(args) -> int:
     from ground.mcap_io.reader import read_messages
-    from tools.summary import describe, summarize
+    from ground.report.run_summary import summarize
+    from ground.report.summary_types import RunFiles
+    from tools.summary import describe
 
     cfg = with_budget(scenario_from_args(args), args.budget_mode, args.budget, args.cpu_scale)
     cfg, seed = resolve(cfg, args.seed)
@@ -87,9 +89,9 @@ def run(args) -> int:
         raise UsageError("the scenario resolved without an a-priori initial state")
     t_start = init.t_s
     summary = summarize(messages, scenario=cfg.name, seed=seed, fault=args.fault, t0=t_start, wall_time_s=wall)
-    summary["run_id"] = run_id
-    summary["files"] = {"mcap": str(out / "run.mcap"), "config": str(out / "config.yaml")}
-    path = write_summary(summary, out)
+    summary = dataclasses.replace(summary, run_id=run_id,
+                                  files=RunFiles(mcap=str(out / "run.mcap"), config=str(out / "config.yaml")))
+    path = write_summary(summary.to_json(), out)
     print(describe(summary))
     print(f"files: {out / 'run.mcap'}  {path}  {out / 'config.yaml'}")
     return 0

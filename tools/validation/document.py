@@ -12,38 +12,20 @@ from __future__ import annotations
 
 import shutil
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
+from ground.report.campaign_data import reading_order
+from ground.report.row_types import ResultRow
+from ground.report.summary_types import AnomalyBlock
 from tools.validation import paper
 from tools.validation.claims import TABLE3_CASES, Claim, table3_claims, table4_claim
+from tools.validation.section import Section, claims_lines, figure_links, table
 from tools.validation.tables import WeightRow, means, ok_rows, weight_table
 
 CAMPAIGNS = ("seed001-table3", "seed001-table4", "detection-matrix", "overinflated")
-
-
-@dataclass
-class Section:
-    title: str
-    lines: list[str] = field(default_factory=list)
-    claims: list[Claim] = field(default_factory=list)
-    discussion: str = ""
-
-
-def _tick(ok: bool) -> str:
-    return "reproduces" if ok else "**does not reproduce**"
-
-
-def _table(header: list[str], rows: list[list[str]]) -> list[str]:
-    def cell(text: str) -> str:
-        return text.replace("|", "\\|")  # "KF 2|2" must not split a cell
-
-    out = ["| " + " | ".join(map(cell, header)) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(map(cell, r)) + " |" for r in rows]
-    return out
 
 
 def _w(row: WeightRow | None, names: tuple[str, ...], std: bool = True) -> list[str]:
@@ -52,10 +34,6 @@ def _w(row: WeightRow | None, names: tuple[str, ...], std: bool = True) -> list[
     if std and row.n > 1:
         return [f"{row.mean[n]:.3f} ± {row.std[n]:.3f}" for n in names]
     return [f"{row.mean[n]:.3f}" for n in names]
-
-
-def claims_lines(claims: list[Claim]) -> list[str]:
-    return [f"* {c.statement}: {_tick(c.holds)} — {c.evidence}" for c in claims]
 
 
 def copy_figures(src_dir: Path, patterns: tuple[str, ...], dst_dir: Path, prefix: str) -> list[Path]:
@@ -67,10 +45,6 @@ def copy_figures(src_dir: Path, patterns: tuple[str, ...], dst_dir: Path, prefix
             shutil.copyfile(f, dst)
             out.append(dst)
     return out
-
-
-def _figure_links(figs: list[Path], doc_dir: Path) -> list[str]:
-    return [f"![{f.stem}]({f.relative_to(doc_dir).as_posix()})" for f in figs]
 
 
 # -- seed 001 Table 3 -------------------------------------------------------------------------------
@@ -106,11 +80,11 @@ def table3_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
     for case in TABLE3_CASES:
         p = paper.TABLE3_CHI2[case]
         body.append([case, *(f"{v:.4f}" for v in p), *_w(chi2.get(case), names), *_w(magill.get(case), names, std=False)])
-    s.lines += _table(["case", "paper radio", "paper optical", "paper fused", "navbank radio", "navbank optical",
+    s.lines += table(["case", "paper radio", "paper optical", "paper fused", "navbank radio", "navbank optical",
                        "navbank fused", "Magill radio", "Magill optical", "Magill fused"], body)
     s.claims = table3_claims(means(chi2), means(magill))
     s.lines += ["", "Findings (the orderings of seed 001 §4.3):", "", *claims_lines(s.claims), ""]
-    s.lines += _figure_links(figures, doc_dir)
+    s.lines += figure_links(figures, doc_dir)
     return s
 
 
@@ -191,14 +165,14 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
             top = max(mg.mean, key=mg.mean.__getitem__)
             s.claims.append(Claim(f"table4-magill-{label}", f"{label}: Magill favours the high-uncertainty fused "
                                   "filter (fused-Q)", top == "fused-Q", f"highest: {top} ({mg.mean[top]:.3f})"))
-        runs = [r for r in rows if r["cell"]["scenario"] == scen and r["cell"]["fault"] == case]
-        declared = [r["summary"]["anomaly"] for r in runs if r["summary"]["anomaly"].get("declared")]
-        classes = sorted({a.get("first_class", a.get("class")) for a in declared})
+        runs = [r for r in rows if r.cell.scenario == scen and r.cell.fault == case]
+        declared = [r.summary.anomaly for r in runs if r.summary.anomaly.declared]
+        classes = sorted({a.first_diagnosis for a in declared})
         detector_lines.append(f"* detector (chi2, calibrated for this bank), {label}: declared in "
                               f"{len(declared)}/{len(runs)} runs, diagnosed {', '.join(classes) or 'nothing'}")
-    s.lines += [""] + _table(["scenario", "filter", "paper", "navbank (fault)", "navbank (no fault)"], body)
+    s.lines += [""] + table(["scenario", "filter", "paper", "navbank (fault)", "navbank (no fault)"], body)
     s.lines += ["", "Findings (seed 001 §4.4):", "", *claims_lines(s.claims), *detector_lines, ""]
-    s.lines += _figure_links(figures, doc_dir)
+    s.lines += figure_links(figures, doc_dir)
     return s
 
 
@@ -240,7 +214,7 @@ def seed003_section(results: Any, figure: Path, doc_dir: Path) -> Section:
     for exp in (1, 2):
         for net, w in r.selection[exp].items():
             body.append([f"Experiment {exp}", net, " / ".join(f"{x:.3f}" for x in w)])
-    s.lines += _table(["experiment", "network", "KF 3 weight"], body)
+    s.lines += table(["experiment", "network", "KF 3 weight"], body)
     s.lines += ["", "Experiment 3, delay (measurements after the change) until the new filter has the top "
                 "weight, median per change (and until the old filter has lost 10 % of its weight):", ""]
     body = []
@@ -249,7 +223,7 @@ def seed003_section(results: Any, figure: Path, doc_dir: Path) -> Section:
                      " / ".join(f"{x:g}" for x in r.delays_onset[net]),
                      " – ".join(f"{x:g}" for x in r.first_change_top_p10_p90[net])])
     body.append(["magill, lower bound 1e-3", " / ".join(f"{x:g}" for x in r.magill_bound_delays), "", ""])
-    s.lines += _table(["network", "top, changes 1/2/3/4", "onset, changes 1/2/3/4", "change 1 top, 10–90 %"], body)
+    s.lines += table(["network", "top, changes 1/2/3/4", "onset, changes 1/2/3/4", "change 1 top, 10–90 %"], body)
     gate1 = r.delays_top["gate eta=1"][0]
     mag1 = r.delays_top["magill"][0]
     und = np.array(r.underflow)
@@ -271,7 +245,7 @@ def seed003_section(results: Any, figure: Path, doc_dir: Path) -> Section:
               f"first change: η = 7 {r.delays_top['gate eta=7'][0]:g}, η = 1 {r.delays_top['gate eta=1'][0]:g} "
               "measurements"),
     ]
-    s.lines += ["", "Findings:", "", *claims_lines(s.claims), "", *_figure_links([figure], doc_dir), ""]
+    s.lines += ["", "Findings:", "", *claims_lines(s.claims), "", *figure_links([figure], doc_dir), ""]
     return s
 
 
@@ -346,15 +320,15 @@ NETWORKS = ("chi2", "chi2-two-sided", "magill")
 CLASS_ORDER = ("none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown")
 
 
-def detector_results(row: dict) -> dict[str, dict]:
-    """network -> anomaly summary of one run: the onboard detector's and every monitor's."""
-    summ = row["summary"]
+def detector_results(row: ResultRow) -> dict[str, AnomalyBlock]:
+    """network -> anomaly block of one run: the onboard detector's and every monitor's."""
+    summ = row.summary
     out = {}
-    if summ.get("anomaly", {}).get("detector"):
-        out[summ["anomaly"].get("network") or row.get("detector", {}).get("network", "chi2")] = summ["anomaly"]
-    for net, a in (summ.get("monitors") or {}).items():
-        if "error" not in a:  # a replay that failed is reported by the campaign, not scored here
-            out.setdefault(net, a)
+    if summ.anomaly.detector:
+        out[summ.anomaly.network or row.detector.network] = summ.anomaly
+    for net, mon in (summ.monitors or {}).items():
+        if mon.anomaly is not None:  # a replay that failed is reported by the campaign, not scored here
+            out.setdefault(net, mon.anomaly)
     return out
 
 
@@ -362,13 +336,11 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
     from tools.campaign.stats import binomial, latency_stats
 
     s = Section("Beyond the papers: detection, false alarms, latency, characterization")
-    from ground.report.campaign_data import cases as reading_order
-
-    rows = sorted(ok_rows(camp), key=lambda r: (r["cell"]["fault"], r["seed"]))
-    cases = reading_order(rows)
-    n_seeds = max((sum(1 for r in rows if r["cell"]["fault"] == c) for c in cases), default=0)
-    onsets = sorted({round(r["summary"]["anomaly"].get("onset_true_day") or 0.0, 2) for r in rows
-                     if r["summary"]["anomaly"].get("onset_true_day") is not None})
+    rows = sorted(ok_rows(camp), key=lambda r: (r.cell.fault, r.seed))
+    cases = reading_order(r.cell.fault for r in rows)
+    n_seeds = max((sum(1 for r in rows if r.cell.fault == c) for c in cases), default=0)
+    onsets = sorted({round(r.summary.anomaly.onset_true_day, 2) for r in rows
+                     if r.summary.anomaly.onset_true_day is not None})
     s.lines += [
         "Every fault preset on `insight-approach` (presets start on day "
         + ", ".join(f"{d:g}" for d in onsets) + f"), {n_seeds} seeds per case (seeds 1–{n_seeds}), one run per "
@@ -388,10 +360,10 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
         "```",
         "",
     ]
-    by_net: dict[str, dict[str, list[dict]]] = {}
+    by_net: dict[str, dict[str, list[AnomalyBlock]]] = {}
     for r in rows:
         for net, a in detector_results(r).items():
-            by_net.setdefault(net, {}).setdefault(r["cell"]["fault"], []).append(a)
+            by_net.setdefault(net, {}).setdefault(r.cell.fault, []).append(a)
     nets = [n for n in NETWORKS if n in by_net] + [n for n in by_net if n not in NETWORKS]
     body = []
     for case in cases:
@@ -401,34 +373,34 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
             if not res:
                 cells.append("n/a")
                 continue
-            if res[0].get("true_class", "none") == "none":
-                b = binomial(sum(bool(a["declared"]) for a in res), len(res))
-                cells.append(f"FA {b['k']}/{b['n']} [{100 * b['ci'][0]:.0f}–{100 * b['ci'][1]:.0f} %]")
+            if res[0].true_class == "none":
+                b = binomial(sum(a.declared for a in res), len(res))
+                cells.append(f"FA {b.k}/{b.n} [{100 * b.ci[0]:.0f}–{100 * b.ci[1]:.0f} %]")
                 continue
-            det = [a for a in res if a["declared"] and not a.get("false_alarm")]
+            det = [a for a in res if a.detected]
             b = binomial(len(det), len(res))
-            lat = latency_stats([a["latency_s"] for a in det if a.get("latency_s") is not None])
-            correct = sum(1 for a in det if a.get("first_class", a.get("class")) == a.get("true_class"))
-            txt = f"{b['k']}/{b['n']} [{100 * b['ci'][0]:.0f}–{100 * b['ci'][1]:.0f} %]"
+            lat = latency_stats([a.latency_s for a in det if a.latency_s is not None])
+            correct = sum(1 for a in det if a.first_diagnosis == a.true_class)
+            txt = f"{b.k}/{b.n} [{100 * b.ci[0]:.0f}–{100 * b.ci[1]:.0f} %]"
             if lat:
-                txt += f", {lat['median_h']:.0f} h (p90 {lat['p90_h']:.0f} h)"
+                txt += f", {lat.median_h:.0f} h (p90 {lat.p90_h:.0f} h)"
             if det:
                 txt += f", class {correct}/{len(det)}"
-            pre = sum(1 for a in res if a.get("false_alarm"))
+            pre = sum(1 for a in res if a.false_alarm)
             if pre:
                 txt += f", {pre} pre-onset FA"
             cells.append(txt)
         body.append([case, *cells])
     s.lines += ["P_D [95 % CI], median latency (90th percentile), correct class among detections; "
                 "`none`: false alarms per run:", ""]
-    s.lines += _table(["fault preset", *nets], body)
+    s.lines += table(["fault preset", *nets], body)
     for net in nets:
         classes = list(CLASS_ORDER)
         mat: dict[tuple[str, str], int] = {}
         for case, res in by_net[net].items():
             for a in res:
-                got = a.get("first_class", a.get("class")) if a["declared"] else "none"
-                key = (a.get("true_class", "none"), got or "unknown")
+                got = a.first_diagnosis if a.declared else "none"
+                key = (a.true_class, got or "unknown")
                 mat[key] = mat.get(key, 0) + 1
                 for c in key:
                     if c not in classes:
@@ -436,9 +408,9 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
         true_classes = [c for c in classes if any(k[0] == c for k in mat)]
         s.lines += ["", f"Characterization, {net} (rows: injected class, columns: diagnosed class at the first "
                     "declaration, `none` = nothing declared):", ""]
-        s.lines += _table(["injected \\ diagnosed", *classes],
+        s.lines += table(["injected \\ diagnosed", *classes],
                           [[t, *(str(mat.get((t, c), 0)) for c in classes)] for t in true_classes])
-    s.lines += ["", "The figure below scores the class each detector settled on (its last report with the flag raised); the tables above score the class at the first declaration. They differ where a diagnosis changes after the first declaration, as Magill's does for the radiometric faults.", ""] + _figure_links(figures, doc_dir)
+    s.lines += ["", "The figure below scores the class each detector settled on (its last report with the flag raised); the tables above score the class at the first declaration. They differ where a diagnosis changes after the first declaration, as Magill's does for the radiometric faults.", ""] + figure_links(figures, doc_dir)
     # the mid-arc counterpart of Table 3, from the same runs
     chi2 = weight_table(rows, "chi2", which="mean_weights_after_onset")
     magill = weight_table(rows, "magill", which="mean_weights_after_onset")
@@ -446,7 +418,7 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
         names = paper.TABLE3_FILTERS
         s.lines += ["", "Mean weights after the onset (day 20) in the same runs — the mid-arc counterpart of "
                     "Table 3 (chi2; Magill):", ""]
-        s.lines += _table(["fault preset", *(f"chi2 {n}" for n in names), *(f"Magill {n}" for n in names)],
+        s.lines += table(["fault preset", *(f"chi2 {n}" for n in names), *(f"Magill {n}" for n in names)],
                           [[c, *_w(chi2.get(c), names), *_w(magill.get(c), names, std=False)]
                            for c in cases if c in chi2])
     return s
@@ -478,7 +450,7 @@ def overinflated_section(camp: Path, doc_dir: Path) -> Section:
     if not body:
         s.lines.append(f"No runs in {camp}.")
         return s
-    s.lines += _table(["network", "case", *names], body)
+    s.lines += table(["network", "case", *names], body)
     inflated = [n for n in names if "inflated" in n]
     if inflated:
         f = inflated[0]
@@ -521,7 +493,7 @@ def render(sections: list[Section], *, generated: str, commands: list[str]) -> s
     for s in sections:
         for c in s.claims:
             body.append([s.title.split(":")[0], c.statement, "yes" if c.holds else "**no**"])
-    lines += _table(["source", "finding", "reproduces"], body)
+    lines += table(["source", "finding", "reproduces"], body)
     for s in sections:
         lines += ["", f"## {s.title}", "", *s.lines]
         if s.discussion:

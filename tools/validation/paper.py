@@ -27,14 +27,5 @@ TABLE4_CHI2: dict[str, tuple[float, ...]] = {
 SEED003_SWITCH = {"gate": 103, "magill": 110}
 SEED003_UNDERFLOW = 168
 
-#: Seed 000 §V, Table I: the hierarchical bank (bank -> filters as (tau_nga days, sigma_nga km/s^2,
-#: sigma_n mm/s)) and the NGA level change.
-SEED000_TABLE_I = {
-    1: ((1.0, 0.07e-12, 0.01), (7.0, 0.07e-12, 0.01), (30.0, 0.07e-12, 0.01)),
-    2: ((1.0, 0.7e-12, 0.01), (7.0, 0.7e-12, 0.01), (30.0, 0.7e-12, 0.01)),
-    3: ((1.0, 7.0e-12, 0.01), (7.0, 7.0e-12, 0.01), (30.0, 7.0e-12, 0.01)),
-    4: ((7.0, 0.7e-12, 0.001), (7.0, 0.7e-12, 0.05), (7.0, 0.7e-12, 0.10)),
-}
-SEED000_NGA_SIGMA = (0.7e-12, 7.0e-12)
-SEED000_NGA_TAU_DAYS = 7.0
+#: Seed 000 §V: the observations of its hierarchical-bank run.
 SEED000_OBSERVATIONS = 1230

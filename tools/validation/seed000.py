@@ -69,7 +69,7 @@ def analyse(result: RunResult) -> CruiseResults:
     top, in_bank = h.top, h.in_bank
     change = min((f.onset_day for f in cfg.sim.faults if f.type == "nga-level"), default=np.nan)
     span = cfg.sim.trajectory.span_days
-    counts = result.summary["measurements"]["processed"]
+    counts = result.summary.measurements.processed
     res = CruiseResults(result.seed, counts, float(change), float(span), banks, groups, t_day, top, in_bank)
     before = (t_day >= change / 2) & (t_day < change)  # the second quarter: after the start-up transient
     after = t_day >= change + (span - change) / 2     # the last quarter
@@ -87,7 +87,7 @@ def analyse(result: RunResult) -> CruiseResults:
             first = post[last_behind[-1] + 1] if last_behind.size else post[0]
             res.overtake_day = float(t_day[first])
             res.overtake_measurements = int(first - post[0] + 1)
-    res.wall_s = float(result.summary.get("wall_time_s", 0.0) or 0.0)
+    res.wall_s = float(result.summary.wall_time_s or 0.0)
     return res
 
 
@@ -128,7 +128,8 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
     """The report section: seed ``seeds[0]`` in the table and figure, every finding counted over all
     seeds (one in-process cruise each, ~20 s)."""
     from tools.validation import paper
-    from tools.validation.document import Claim, Section, _figure_links, _table, claims_lines
+    from tools.validation.claims import Claim
+    from tools.validation.section import Section, claims_lines, figure_links, table
 
     runs = results or [run_cruise(seed) for seed in seeds]
     r = runs[0]
@@ -155,12 +156,12 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
         "the arc (before the change) and over the last quarter (after it); KF j|i is `kfj_i`:",
         "",
     ]
-    s.lines += _table(["bank", "g_i before", "g_i after", "g_j|i before", "g_j|i after"],
+    s.lines += table(["bank", "g_i before", "g_i after", "g_j|i before", "g_j|i after"],
                       [[b, f"{r.top_mean_before[b]:.3f}", f"{r.top_mean_after[b]:.3f}",
                         ", ".join(f"{f} {w:.2f}" for f, w in r.in_bank_before[b].items()),
                         ", ".join(f"{f} {w:.2f}" for f, w in r.in_bank_after[b].items())] for b in r.banks])
     s.lines += ["", "Every seed:", ""]
-    s.lines += _table(["seed", "top bank before / after", "bank 3 overtakes bank 2 for good",
+    s.lines += table(["seed", "top bank before / after", "bank 3 overtakes bank 2 for good",
                        "bank 2 pick before / after", "bank 3 pick after", "bank 4 pick"],
                       [[str(x.seed), f"{_pick(x.top_mean_before)} / {_pick(x.top_mean_after)}",
                         (f"day {x.overtake_day:.1f} ({x.overtake_measurements} meas. after the change)"
@@ -192,5 +193,5 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
         Claim("s0-bank4", "bank 4 favours KF 1|4 and KF 2|4", 2 * k4 > n, f"{k4}/{n} seeds"),
     ]
     s.lines += ["", "Findings (a finding about a single selection counts as reproduced when it holds in most seeds):",
-                "", *claims_lines(s.claims), "", *_figure_links([fig], doc_dir), ""]
+                "", *claims_lines(s.claims), "", *figure_links([fig], doc_dir), ""]
     return s

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
+from ground.report.row_types import ResultRow
 from tools.campaign.store import read_rows
 
 
@@ -19,23 +21,24 @@ class WeightRow:
     std: dict[str, float]
 
 
-def ok_rows(campaign_dir: str | Path) -> list[dict]:
+def ok_rows(campaign_dir: str | Path) -> list[ResultRow]:
     """The latest successful row of every run of a campaign directory."""
     latest = read_rows(Path(campaign_dir) / "runs.jsonl").latest()
-    return [r for r in latest.values() if r.get("status") == "ok" and r.get("summary")]
+    return [r for r in latest.values() if r.ok]
 
 
-def weight_table(rows: list[dict], network: str, *, scenario: str | None = None,
-                 which: str = "mean_weights") -> dict[str, WeightRow]:
+def weight_table(rows: list[ResultRow], network: str, *, scenario: str | None = None,
+                 which: Literal["mean_weights", "mean_weights_after_onset"] = "mean_weights") -> dict[str, WeightRow]:
     """case -> WeightRow for ``network`` (``which``: mean_weights or mean_weights_after_onset)."""
     acc: dict[str, list[dict[str, float]]] = {}
     for r in rows:
-        if scenario is not None and r["cell"]["scenario"] != scenario:
+        if scenario is not None and r.cell.scenario != scenario:
             continue
-        g = r["summary"].get("gating", {}).get(network)
-        if not g or which not in g:
+        g = r.summary.gating.get(network)
+        weights = getattr(g, which) if g is not None else None
+        if not weights:
             continue
-        acc.setdefault(r["cell"]["fault"], []).append(g[which])
+        acc.setdefault(r.cell.fault, []).append(weights)
     out = {}
     for case, vals in acc.items():
         names = list(vals[0])

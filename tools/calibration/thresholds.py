@@ -1,7 +1,8 @@
 """Calibration of the anomaly detector on nominal runs, to a target false-alarm rate.
 
-Procedure (reproducible: ``python -m fsw.fdir.calibrate nominal.npz --network chi2
---target-fa 0.01 --out detector.yaml``; the library entry point is :func:`calibrate`):
+Procedure (``navbank calibrate`` runs the nominal campaign and calls :func:`calibrate`;
+``python -m tools.calibration nominal.npz --network chi2 --target-fa 0.01 --out detector.yaml``
+calibrates from weight histories already at hand):
 
 1. Drop the first ``warmup`` batches of every nominal run (the gating network's start transient).
 2. Learn the nominal band of the network's weights: per-filter mean and the covariance of the
@@ -36,25 +37,25 @@ probability threshold.
 
 from __future__ import annotations
 
-import argparse
-import sys
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Literal, Sequence
 
 import numpy as np
 from scipy import stats
 
-from fsw.fdir.config import DetectorConfig, Statistic, config_to_yaml
+from fsw.fdir.config import DetectorConfig, Statistic
 from fsw.fdir.detector import AnomalyDetector
-from fsw.fdir.errors import CalibrationError
 from fsw.fdir.families import FilterFamily
 from fsw.fdir.persistence import critical_value
 from fsw.fdir.statistic import NominalBand
 from fsw.interface.typed import spec
-from fsw.interface.yamlconfig import dump_yaml
+from ground.report.intervals import clopper_pearson
 
 MIN_UNITS_FOR_TAIL_FIT = 10
+
+
+class CalibrationError(ValueError):
+    """Nominal histories that cannot produce a detector configuration (too few, inconsistent)."""
 
 
 @dataclass(frozen=True)
@@ -87,16 +88,6 @@ class FalseAlarmEstimate:
     units: int
     rate: float
     ci: tuple[float, float]
-
-
-def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
-    """Exact (Clopper–Pearson) confidence interval for a binomial proportion k/n."""
-    if n <= 0 or not 0 <= k <= n:
-        raise ValueError("need 0 <= k <= n and n > 0")
-    alpha = 1.0 - level
-    lo = 0.0 if k == 0 else float(stats.beta.ppf(alpha / 2.0, k, n - k + 1))
-    hi = 1.0 if k == n else float(stats.beta.ppf(1.0 - alpha / 2.0, k + 1, n - k))
-    return lo, hi
 
 
 def _as_runs(histories: Sequence[np.ndarray], n_filters: int, warmup: int) -> list[np.ndarray]:
@@ -281,61 +272,3 @@ def evaluate_false_alarms(
                 alarms += 1
                 break
     return FalseAlarmEstimate(alarms, len(units), alarms / len(units), clopper_pearson(alarms, len(units), confidence_level))
-
-
-def _load_runs(path: Path) -> tuple[list[np.ndarray], tuple[str, ...]]:
-    with np.load(path, allow_pickle=False) as data:
-        if "filters" not in data:
-            raise CalibrationError(f"{path}: missing array 'filters' (filter names)")
-        names = tuple(str(s) for s in data["filters"])
-        if "weights" in data:
-            stacked = data["weights"]
-            if stacked.ndim != 3:
-                raise CalibrationError(f"{path}: 'weights' must have shape (runs, batches, filters)")
-            return [stacked[i] for i in range(stacked.shape[0])], names
-        keys = sorted(k for k in data.files if k.startswith("run_"))
-        if not keys:
-            raise CalibrationError(f"{path}: no 'weights' array and no 'run_*' arrays")
-        return [data[k] for k in keys], names
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: calibrate a detector from an .npz of nominal weight histories."""
-    parser = argparse.ArgumentParser(
-        prog="python -m fsw.fdir.calibrate",
-        description="Calibrate the anomaly detector's threshold to a target false-alarm rate "
-        "on nominal weight histories (.npz with 'filters' and 'weights' (runs, batches, N) "
-        "or one 'run_*' array (batches, N) per run).",
-    )
-    parser.add_argument("runs", type=Path)
-    parser.add_argument("--network", required=True)
-    parser.add_argument("--target-fa", type=float, default=0.01)
-    parser.add_argument("--statistic", choices=("mahalanobis", "max-z"), default="mahalanobis")
-    parser.add_argument("--persistence", type=int, nargs=2, metavar=("K", "N"), default=(3, 5))
-    parser.add_argument("--hold", type=int, default=5)
-    parser.add_argument("--warmup", type=int, default=0)
-    parser.add_argument("--segment-batches", type=int, default=None)
-    parser.add_argument("--spread-floor", type=float, default=1.0e-3)
-    parser.add_argument("--out", type=Path, required=True, help="detector configuration (YAML)")
-    parser.add_argument("--report", type=Path, default=None, help="calibration report (YAML)")
-    args = parser.parse_args(argv)
-    try:
-        runs, names = _load_runs(args.runs)
-        config, report = calibrate(
-            runs, args.target_fa, network=args.network, filters=names, statistic=args.statistic,
-            persistence=tuple(args.persistence), hold=args.hold, warmup=args.warmup,
-            segment_batches=args.segment_batches, spread_floor=args.spread_floor,
-        )
-    except (CalibrationError, OSError, ValueError) as exc:
-        print(f"calibration failed: {exc}", file=sys.stderr)
-        return 2
-    args.out.write_text(config_to_yaml(config))
-    report_text = dump_yaml(report, drop_defaults=False)
-    if args.report is not None:
-        args.report.write_text(report_text)
-    print(report_text, end="")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,0 +1,130 @@
+"""The summary of one run, computed from its messages (in memory, or read back from MCAP).
+
+``summarize`` is the single definition of every number ``navbank run`` prints and writes to
+``summary.json``; campaigns aggregate these records. It lives on the ground because it is pure
+post-processing of telemetry: the report reads what it computes, and the tools only call it. Position errors compare each Estimate
+with the Truth of the same epoch (the FSW publishes estimates on a grid that the simulator's
+truth cadence contains), so no interpolation enters the score.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from typing import Any, Iterable
+
+import numpy as np
+
+from fsw.interface import topics
+from ground.report.run_facts import anomaly_summary
+from ground.report.summary_types import (BudgetBlock, FaultBlock, FaultEventRecord, GatingEntry,
+                                         MeasurementCounts, RunSummary)
+
+DAY_S = 86400.0
+
+
+def _by_topic(messages: Iterable[tuple[str, Any]]) -> dict[str, list]:
+    out: dict[str, list] = defaultdict(list)
+    for topic, msg in messages:
+        out[topic.strip("/")].append(msg)
+    return out
+
+
+def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, fault: str | None,
+              t0: float, wall_time_s: float | None = None, lost: int | None = None) -> RunSummary:
+    """Summary of a run (see the module docstring). ``t0`` is the scenario start epoch."""
+    by = _by_topic(messages)
+    meas = by.get(topics.SIM_MEASUREMENTS, [])
+    sim_status = [s for s in by.get(topics.SIM_STATUS, []) if s.state == "end-of-run"]
+    fsw_status = by.get(topics.FSW_STATUS, [])
+    fsw_end = next((s for s in reversed(fsw_status) if s.state == "end-of-run"), None)
+    fsw_last = fsw_status[-1] if fsw_status else None
+    counts = (fsw_end or fsw_last).counts if (fsw_end or fsw_last) else {}
+    published = sim_status[-1].counts.get("measurements", len(meas)) if sim_status else len(meas)
+
+    events = sorted(by.get(topics.SIM_FAULTS, []), key=lambda e: e.t_s)
+    starts = [e for e in events if e.event == "start"]
+    onset_true = starts[0].t_s if starts else None
+    true_class = starts[0].fault_class if starts else "none"
+
+    weights: dict[str, GatingEntry] = {}
+    for topic, msgs in by.items():
+        if not topic.startswith(topics.FSW_WEIGHTS + "/") or not msgs:
+            continue
+        w = np.array([x.weights for x in msgs], dtype=float)
+        names = msgs[-1].filters
+
+        def mean(sel: np.ndarray) -> dict[str, float]:
+            return {n: float(v) for n, v in zip(names, w[sel].mean(axis=0))}
+
+        before = np.array([onset_true is not None and x.t_s < onset_true for x in msgs])
+        weights[msgs[-1].network] = GatingEntry(
+            mean_weights={n: float(v) for n, v in zip(names, w.mean(axis=0))},
+            updates=len(msgs),
+            mean_weights_before_onset=mean(before) if before.any() else None,
+            mean_weights_after_onset=mean(~before) if onset_true is not None and (~before).any() else None,
+            final_weights={n: float(v) for n, v in zip(names, w[-1])})
+
+    anomaly = anomaly_summary(by.get(topics.FSW_ANOMALY, []), onset_true=onset_true, true_class=true_class, t0=t0)
+
+    truth = {round(t.t_s, 3): np.array(t.position_km) for t in by.get(topics.SIM_TRUTH, [])}
+    pos_rms: dict[str, float] = {}
+    pos_final: dict[str, float] = {}
+    within_3sigma: dict[str, float] = {}
+    filters: list[str] = []
+    for topic, msgs in by.items():
+        if not topic.startswith(topics.FSW_ESTIMATE + "/"):
+            continue
+        label = topic.split("/", 2)[2]
+        err, sig = [], []
+        for e in msgs:
+            tr = truth.get(round(e.t_s, 3))
+            if tr is not None:
+                err.append(float(np.linalg.norm(np.array(e.position_km) - tr)))
+                sig.append(e.position_sigma_km)
+        if err:
+            e_arr, s_arr = np.array(err), np.array(sig)
+            pos_rms[label] = float(math.sqrt(np.mean(e_arr**2)))
+            pos_final[label] = float(e_arr[-1])
+            within_3sigma[label] = float(np.mean(e_arr <= 3.0 * s_arr))
+        if label not in ("combined", "best"):
+            filters.append(label)
+
+    budget_msgs = by.get(topics.FSW_BUDGET, [])
+    budget = BudgetBlock(
+        frames=(budget_msgs[-1].frame + 1) if budget_msgs else 0,
+        reports=len(budget_msgs),
+        overruns=max((b.overruns for b in budget_msgs), default=0),
+        max_utilisation=max((b.utilisation for b in budget_msgs), default=0.0),
+        mean_utilisation_busy=float(np.mean([b.utilisation for b in budget_msgs if b.processed])) if any(b.processed for b in budget_msgs) else 0.0,
+        max_backlog=max((b.backlog for b in budget_msgs), default=0),
+        final_backlog=budget_msgs[-1].backlog if budget_msgs else 0,
+        errors=max((b.errors for b in budget_msgs), default=0),
+        mode=budget_msgs[-1].mode if budget_msgs else None,
+    )
+
+    lost_count = counts.get("lost", 0) if lost is None else lost
+    return RunSummary(
+        scenario=scenario,
+        seed=seed,
+        t0=t0,
+        fault=FaultBlock(preset=fault, fault_class=true_class, events=tuple(
+            FaultEventRecord(id=e.fault_id, type=e.fault_type, event=e.event, t_s=e.t_s,
+                             day=(e.t_s - t0) / DAY_S, magnitude=e.magnitude) for e in events)),
+        measurements=MeasurementCounts(
+            published=int(published),
+            processed=int(counts.get("processed", 0)),
+            rejected=int(counts.get("rejected", 0)),
+            lost=int(lost_count),
+            duplicates=int(counts.get("duplicates", 0)),
+            reordered=int(counts.get("reordered", 0)),
+        ),
+        filters=tuple(sorted(filters, key=lambda f: filters.index(f))),
+        gating=weights,
+        anomaly=anomaly,
+        position_error_rms_km=pos_rms,
+        position_error_final_km=pos_final,
+        position_within_3sigma=within_3sigma,
+        budget=budget,
+        wall_time_s=wall_time_s,
+    )

@@ -1,0 +1,188 @@
+"""The run summary as declared records: what ``summarize`` returns and ``summary.json`` holds.
+
+A campaign row carries the same record under ``summary``, with one more block, ``monitors``: the
+anomaly block of every further detector replayed on the run's weights. The JSON form is the one
+``navbank run`` has always written (key order included); :meth:`RunSummary.from_json` reads it
+back, strictly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from fsw.interface import typed
+from fsw.interface.typed import spec
+from ground.report.json_record import JsonRecord
+
+
+@dataclass(frozen=True)
+class ErrorRecord(JsonRecord):
+    """An exception turned into data: a failed run, or a monitor that could not be evaluated."""
+
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"traceback"})
+
+    type: str = spec(doc="exception class name")
+    message: str = spec(doc="exception message")
+    traceback: str | None = spec(None, doc="the last lines of the traceback")
+
+
+@dataclass(frozen=True)
+class FaultEventRecord(JsonRecord):
+    """One injected fault starting or ending, as the run recorded it."""
+
+    id: str = spec(doc="fault identifier within the scenario")
+    type: str = spec(doc="fault type, e.g. 'optical-bias'")
+    event: str = spec(doc="'start' or 'end'")
+    t_s: float = spec(doc="event epoch, TDB seconds past J2000", unit="s")
+    day: float = spec(doc="event epoch in days since the scenario start", unit="d")
+    magnitude: dict[str, float] = spec(default_factory=dict, doc="fault parameters with units in their names")
+
+
+@dataclass(frozen=True)
+class FaultBlock(JsonRecord):
+    """What was injected: the preset asked for, the class a perfect diagnosis gives, the events."""
+
+    _json_keys: ClassVar[dict[str, str]] = {"fault_class": "class"}
+
+    preset: str | None = spec(doc="the fault preset or case label of the run, None when none was asked for")
+    fault_class: str = spec(doc="anomaly class of the first injected fault, 'none' without one")
+    events: tuple[FaultEventRecord, ...] = spec(doc="fault events in time order")
+
+
+@dataclass(frozen=True)
+class MeasurementCounts(JsonRecord):
+    published: int = spec(doc="measurements the simulator published")
+    processed: int = spec(doc="measurements the FSW processed")
+    rejected: int = spec(doc="measurements the FSW rejected")
+    lost: int = spec(doc="measurements lost on the way")
+    duplicates: int = spec(doc="duplicates the FSW dropped")
+    reordered: int = spec(doc="measurements that arrived out of order")
+
+
+@dataclass(frozen=True)
+class GatingEntry(JsonRecord):
+    """One gating network's weights over the run, filter name -> weight."""
+
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"mean_weights_before_onset", "mean_weights_after_onset"})
+
+    mean_weights: dict[str, float] = spec(doc="mean over the full arc")
+    updates: int = spec(doc="FilterWeights messages of the network")
+    mean_weights_before_onset: dict[str, float] | None = spec(None, doc="mean before the true fault onset")
+    mean_weights_after_onset: dict[str, float] | None = spec(None, doc="mean from the true fault onset on")
+    final_weights: dict[str, float] = spec(default_factory=dict, doc="the last weights")
+
+
+@dataclass(frozen=True)
+class AnomalyBlock(JsonRecord):
+    """A detector's verdict on a run (:func:`ground.report.run_facts.anomaly_summary`)."""
+
+    _json_keys: ClassVar[dict[str, str]] = {"anomaly_class": "class"}
+    # written only for a declaration (first_class) and for a detection (latency_day)
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"first_class", "latency_day"})
+
+    detector: bool = spec(doc="the run had a detector (it reported at least once)")
+    declared: bool = spec(doc="an anomaly was declared")
+    time: float | None = spec(doc="declaration epoch, TDB seconds past J2000", unit="s")
+    time_day: float | None = spec(doc="declaration epoch in days since the scenario start", unit="d")
+    onset_true: float | None = spec(doc="true onset of the first injected fault", unit="s")
+    onset_true_day: float | None = spec(doc="true onset in days since the scenario start", unit="d")
+    onset_estimate: float | None = spec(doc="the detector's onset estimate", unit="s")
+    latency_s: float | None = spec(doc="declaration minus true onset, for a detection", unit="s")
+    anomaly_class: str = spec(doc="the class the detector settled on, 'none' without a declaration")
+    true_class: str = spec(doc="the injected class, 'none' without a fault")
+    confidence: float = spec(doc="confidence in the class", unit="1")
+    network: str | None = spec(doc="gating network the detector watched")
+    false_alarm: bool = spec(doc="declared before the true onset, or with nothing injected")
+    correct_class: bool | None = spec(doc="the class matches the injected one (None without a declaration)")
+    final_flag: bool = spec(doc="the detector's flag at the end of the run")
+    final_class: str = spec(doc="the detector's class at the end of the run")
+    first_class: str | None = spec(None, doc="the class at the first declaration")
+    latency_day: float | None = spec(None, doc="latency in days, for a detection", unit="d")
+
+    @property
+    def detected(self) -> bool:
+        """Declared at or after the true onset."""
+        return self.declared and not self.false_alarm
+
+    @property
+    def diagnosed(self) -> str:
+        """The declared class, 'none' when nothing was declared."""
+        return (self.anomaly_class or "unknown") if self.declared else "none"
+
+    @property
+    def first_diagnosis(self) -> str:
+        """The class at the first declaration (the settled one for blocks that do not record it)."""
+        return self.first_class if self.first_class is not None else self.anomaly_class
+
+
+@dataclass(frozen=True)
+class MonitorBlock:
+    """A monitor's outcome in ``summary.monitors``: its anomaly block, or the error that kept it
+    from being evaluated (JSON: the anomaly block itself, or ``{"error": {...}}``)."""
+
+    anomaly: AnomalyBlock | None = None
+    error: ErrorRecord | None = None
+
+    @classmethod
+    def _typed_decode(cls, data: Any, path: str) -> "MonitorBlock":
+        if isinstance(data, dict) and set(data) == {"error"}:
+            return cls(error=ErrorRecord._typed_decode(data["error"], f"{path}.error"))
+        return cls(anomaly=AnomalyBlock._typed_decode(data, path))
+
+    def _typed_encode(self, drop_defaults: bool) -> dict:
+        if self.error is not None:
+            return {"error": self.error._typed_encode(drop_defaults)}
+        return self.anomaly._typed_encode(drop_defaults)
+
+    @classmethod
+    def _typed_schema(cls) -> dict:
+        return {"anyOf": [typed.json_schema(AnomalyBlock, top=False),
+                          {"type": "object", "properties": {"error": typed.json_schema(ErrorRecord, top=False)},
+                           "required": ["error"], "additionalProperties": False}]}
+
+
+@dataclass(frozen=True)
+class BudgetBlock(JsonRecord):
+    """The frame executive over the run (from its BudgetReports)."""
+
+    frames: int = spec(doc="frames run")
+    reports: int = spec(doc="BudgetReports received")
+    overruns: int = spec(doc="items that exceeded the remaining budget")
+    max_utilisation: float = spec(doc="largest used / budget of a frame", unit="1")
+    mean_utilisation_busy: float = spec(doc="mean utilisation of the frames that processed something", unit="1")
+    max_backlog: int = spec(doc="largest backlog at a frame end")
+    final_backlog: int = spec(doc="backlog at the last frame end")
+    errors: int = spec(doc="work items that raised")
+    mode: str | None = spec(doc="budget accounting mode, None without reports")
+
+
+@dataclass(frozen=True)
+class RunFiles(JsonRecord):
+    mcap: str = spec(doc="the run's MCAP recording")
+    config: str = spec(doc="the run's exact configuration")
+
+
+@dataclass(frozen=True)
+class RunSummary(JsonRecord):
+    """Every number ``navbank run`` prints and writes to ``summary.json``."""
+
+    # monitors: campaign runs with monitors; run_id and files: summaries of ``navbank run``
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"monitors", "run_id", "files"})
+
+    scenario: str = spec(doc="scenario name")
+    seed: int = spec(doc="random seed of the run")
+    t0: float = spec(doc="scenario start epoch, TDB seconds past J2000", unit="s")
+    fault: FaultBlock = spec(doc="what was injected")
+    measurements: MeasurementCounts = spec(doc="measurement counts")
+    filters: tuple[str, ...] = spec(doc="the bank's filters, in the order they reported")
+    gating: dict[str, GatingEntry] = spec(doc="per gating network")
+    anomaly: AnomalyBlock = spec(doc="the onboard detector's verdict")
+    position_error_rms_km: dict[str, float] = spec(doc="per filter (and combined, best)", unit="km")
+    position_error_final_km: dict[str, float] = spec(doc="per filter, at the last estimate", unit="km")
+    position_within_3sigma: dict[str, float] = spec(doc="per filter, fraction of estimates within 3 sigma", unit="1")
+    budget: BudgetBlock = spec(doc="the frame executive")
+    wall_time_s: float | None = spec(doc="wall-clock time of the run", unit="s")
+    monitors: dict[str, MonitorBlock] | None = spec(None, doc="further detectors replayed on the run, per network")
+    run_id: str | None = spec(None, doc="the run's id")
+    files: RunFiles | None = spec(None, doc="the run's files")
