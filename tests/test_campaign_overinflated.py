@@ -1,4 +1,4 @@
-"""The over-inflated filter (seed 001 §3.2's weakness of the chi-square network) and chi2-two-sided."""
+"""The over-inflated filter (Lubey & Ely 2022 §3.2's weakness of the chi-square network) and chi2-two-sided."""
 
 from __future__ import annotations
 

@@ -110,12 +110,12 @@ def test_bad_campaign_is_one_line_with_file_and_line(tmp_path, short_scenario, c
 
 def test_builtin_campaigns_expand():
     names = builtin_names()
-    assert {"optical-bias", "seed001-table3", "seed001-table4", "detection-matrix"} <= set(names)
+    assert {"optical-bias", "lubey-ely-table3", "lubey-ely-table4", "detection-matrix"} <= set(names)
     plan = expand(load_campaign("optical-bias"))
     assert len(plan.tasks) == 4 * 3
     assert sorted({t.cell.fault for t in plan.tasks}) == ["none", "optical-bias-large", "optical-bias-medium",
                                                            "optical-bias-small"]
-    t3 = expand(load_campaign("seed001-table3"))
+    t3 = expand(load_campaign("lubey-ely-table3"))
     assert len(t3.cells) == 7
     assert all([g["network"] for g in t.scenario["fsw"]["gating"]] == ["chi2", "magill"] for t in t3.tasks)
     from sim.faults.presets import FAULT_PRESETS
@@ -131,7 +131,7 @@ def test_builtin_campaigns_expand():
     else:  # the calibrations are not generated yet: a one-line error naming the missing file
         with pytest.raises(ConfigError, match="detectors/detector-chi2.yaml"):
             expand(load_campaign("detection-matrix"))
-    t4 = expand(load_campaign("seed001-table4"))
+    t4 = expand(load_campaign("lubey-ely-table4"))
     banks = {t.cell.scenario: [f["name"] for f in t.scenario["fsw"]["bank"]["filters"]] for t in t4.tasks}
     assert all(len(b) == 6 for b in banks.values())
     dyn = [t for t in t4.tasks if t.fault_class == "dynamics"]

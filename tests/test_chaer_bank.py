@@ -1,4 +1,4 @@
-"""The seed 003 §V tracking scenario generator and the small Kalman filter bank the gating tests
+"""The Chaer et al. 1997 §V tracking scenario generator and the small Kalman filter bank the gating tests
 run on it (checked here against FilterPy, an independent implementation)."""
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ from sim.scenarios import chaer_tracking as ct
 
 
 def run_bank(z: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Linear KFs of seed 003 eqs. 2–6, one per row α = [q1 q2 r1 r2], vectorised across filters.
+    """Linear KFs of Chaer et al. 1997 eqs. 2–6, one per row α = [q1 q2 r1 r2], vectorised across filters.
 
     Returns pre-update residuals (K, L, 2) and innovation covariances (K, L, 2, 2); measurement 0
-    is processed at the a-priori x̂₀⁻, P₀⁻ (seed 003 §V)."""
+    is processed at the a-priori x̂₀⁻, P₀⁻ (Chaer et al. 1997 §V)."""
     alpha = np.asarray(alpha, dtype=float)
     n_f, k_total = len(alpha), len(z)
     F = np.asarray(ct.TRANSITION)

@@ -1,4 +1,4 @@
-"""Consistency of the nominal three-filter bank on the InSight approach (seed 001 §4.1–4.2).
+"""Consistency of the nominal three-filter bank on the InSight approach (Lubey & Ely 2022 §4.1–4.2).
 
 Twenty seeds of the ``insight-approach`` scenario without a fault (noise, force dispersions,
 clock and a-priori error all redrawn) flown through the radio / optical / fused bank over the
@@ -14,8 +14,8 @@ written independently of the filter's models. Checked:
   average must lie in that distribution's 95 % interval, and so must the average of each
   measurement kind and of each day;
 * each filter's position error inside its 3σ in ≥ 99 % of the epochs of one run, both as the
-  RTPC 3σ of seed 001 Figs. 3–5 and as the (stricter) 3-D 3σ ellipsoid;
-* seed 001 Figs. 3–5: fused RTPC below radio-only and optical-only for most of the arc, and the
+  RTPC 3σ of Lubey & Ely 2022 Figs. 3–5 and as the (stricter) 3-D 3σ ellipsoid;
+* Lubey & Ely 2022 Figs. 3–5: fused RTPC below radio-only and optical-only for most of the arc, and the
   optical-only RTPC falling by more than 10× over the last three days;
 * every filter's covariance symmetric positive definite after each of the run's measurements.
 """
@@ -112,7 +112,7 @@ def test_each_filter_position_error_inside_3_sigma(flights):
         assert in_ellipsoid >= 0.99, name
 
 
-def test_rtpc_behaviour_of_seed_001_figures_3_to_5(flights):
+def test_rtpc_behaviour_of_lubey_ely_figures_3_to_5(flights):
     f = flights[0]
     rtpc = {name: f.rtpc[f.index(name)] for name in f.names}
     settled = f.t >= f.t[0] + DAY  # after the a-priori 100 km has been worked off
@@ -124,7 +124,7 @@ def test_rtpc_behaviour_of_seed_001_figures_3_to_5(flights):
     _report("RTPC 3 days before entry -> entry [km]",
             {k: (round(float(v[i3]), 3), round(float(v[-1]), 3)) for k, v in rtpc.items()})
     assert drop > 10.0
-    # radio-only is the tighter single data type through the cruise (seed 001 Figs. 3-4)
+    # radio-only is the tighter single data type through the cruise (Lubey & Ely 2022 Figs. 3-4)
     mid = settled & (f.t <= f.t_end - 5 * DAY)
     assert np.mean(rtpc["radio"][mid] < rtpc["optical"][mid]) >= 0.9
 

@@ -1,4 +1,4 @@
-"""The truth's non-gravitational acceleration (seed 000 eqs. 25-26) and the nga-level fault."""
+"""The truth's non-gravitational acceleration (Chaer et al. 1998 eqs. 25-26) and the nga-level fault."""
 
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ def test_ecrv_variance_and_lag_one_correlation_follow_eq_26():
     assert rho == pytest.approx(math.exp(-0.5), abs=0.015)
     axes = np.corrcoef(x.T)
     assert np.max(np.abs(axes - np.eye(3))) < 0.05  # independent axes
-    # the seed 000 time constant: 7 days of 1-hour batches, m = exp(-1/168)
+    # the Chaer et al. 1998 time constant: 7 days of 1-hour batches, m = exp(-1/168)
     r7 = _nga(200_000, tau_days=7.0)
     y = r7.nga_accel
     assert np.sum(y[1:] * y[:-1]) / np.sum(y[:-1] ** 2) == pytest.approx(math.exp(-1 / 168), abs=2e-3)

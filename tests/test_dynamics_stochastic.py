@@ -1,4 +1,4 @@
-"""Stochastic force draws: reproducibility and the statistics of seed 000 eqs. 25-26 / seed 001."""
+"""Stochastic force draws: reproducibility and the statistics of Chaer et al. 1998 eqs. 25-26 / Lubey & Ely 2022."""
 
 import math
 

@@ -58,7 +58,7 @@ faults:
                           FaultConfig(type="doppler-bias", onset_day=1.0, doppler_mhz=1.0, id="x")))
 
 
-def test_presets_follow_seed_001_table_2_and_section_4_4():
+def test_presets_follow_lubey_ely_table_2_and_section_4_4():
     expected = {
         "none": (),
         "optical-bias-small": (("optical-bias", {"sample_px": 0.2, "line_px": 0.3}),),

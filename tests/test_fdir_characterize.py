@@ -1,4 +1,4 @@
-"""Decision tree on the average weights of seed 001 Tables 3 and 4 (hand-worked margins)."""
+"""Decision tree on the average weights of Lubey & Ely 2022 Tables 3 and 4 (hand-worked margins)."""
 
 from __future__ import annotations
 

@@ -92,7 +92,7 @@ def test_fault_is_declared_with_class_and_onset(chi2_configs, bank, key, fault, 
 
 
 def test_small_radio_bias_absorbed_by_clock_is_not_declared(chi2_configs):
-    """Seed 001 Table 3: small/medium radio biases leave the weights at their nominal values."""
+    """Lubey & Ely 2022 Table 3: small/medium radio biases leave the weights at their nominal values."""
     rng = np.random.default_rng(17)
     for weights in simulate_chi2(rng, BANK3, 10, 60, fault=radio_bias(5.0), onset=10):
         assert not any(s.flag for s in run(AnomalyDetector(chi2_configs["bank3"], BANK3), weights, names(BANK3)))
@@ -119,7 +119,7 @@ def test_family_rise_classified(target, expected):
 
 def test_high_q_filters_rising_is_dynamics():
     rng = np.random.default_rng(2)
-    target = [0.0844, 0.2510, 0.0815, 0.1658, 0.2520, 0.1653]  # seed 001 Table 4, thruster scenario
+    target = [0.0844, 0.2510, 0.0815, 0.1658, 0.2520, 0.1653]  # Lubey & Ely 2022 Table 4, thruster scenario
     w = ramp_weights(rng, 60, [1 / 6] * 6, target, onset=20, noise=0.5 * SIGMA)
     states = run(AnomalyDetector(hand_config(6), BANK6), w, names(BANK6), dt=1.0)
     assert states[-1].flag and states[-1].anomaly_class == "dynamics"

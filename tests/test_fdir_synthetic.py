@@ -1,9 +1,9 @@
 """Synthetic gating-weight histories for the anomaly-detector tests, and checks of the generator.
 
 Weights come from an independent implementation of the chi-square gating network's closed-form
-update (seed 001 eq. 8) driven by synthetic batch chi-square sums: each batch holds ``M_RADIO``
+update (Lubey & Ely 2022 eq. 8) driven by synthetic batch chi-square sums: each batch holds ``M_RADIO``
 scalar radiometric and ``M_OPTICAL`` two-dimensional optical measurements; a filter that does not
-process a type contributes the chi-square mean n_j for it (seed 001 §3.2); a fault adds a
+process a type contributes the chi-square mean n_j for it (Lubey & Ely 2022 §3.2); a fault adds a
 noncentrality to the sums of the filters it affects.
 """
 
@@ -35,7 +35,7 @@ def names(bank) -> tuple[str, ...]:
 
 
 def chi2_gating_step(p_prev: np.ndarray, G: np.ndarray, sigma_w: float = SIGMA_W) -> np.ndarray:
-    """Seed 001 eq. 8 with W = sigma_w^2 I (G diagonal), vectorised over leading axes."""
+    """Lubey & Ely 2022 eq. 8 with W = sigma_w^2 I (G diagonal), vectorised over leading axes."""
     winv = 1.0 / sigma_w**2
     a = 1.0 / (G + winv)
     lam = (np.sum(a * winv * p_prev, axis=-1) - 1.0) / np.sum(a, axis=-1)
@@ -86,7 +86,7 @@ def radio_bias(nonc: float):
 
 
 def thruster_mismodel(nonc_radio: float, nonc_optical: float):
-    """Seed 001 §4.4: low-Q filters mis-model the thrusting, radio-based ones far more."""
+    """Lubey & Ely 2022 §4.4: low-Q filters mis-model the thrusting, radio-based ones far more."""
     return lambda f: (0.0, 0.0) if f.high_q else (
         nonc_radio if RADIO in f.processes else 0.0,
         nonc_optical if OPTICAL in f.processes else 0.0,
@@ -114,7 +114,7 @@ def ramp_weights(rng, n_batches, nominal, faulty, onset, tau=1.5, noise=0.008, e
 
 
 def test_eq8_step_minimises_eq6_cost():
-    """The closed form used to synthesise weights is the constrained minimum of seed 001 eq. 6."""
+    """The closed form used to synthesise weights is the constrained minimum of Lubey & Ely 2022 eq. 6."""
     rng = np.random.default_rng(7)
     p_prev = rng.dirichlet(np.ones(4))
     G = rng.uniform(50.0, 3000.0, 4)
@@ -135,7 +135,7 @@ def test_nominal_weights_stay_equal_and_optical_bias_prefers_radio():
     np.testing.assert_allclose(nominal[:, 5:].mean(axis=(0, 1)), 1 / 3, atol=2e-3)
     biased = simulate_chi2(rng, BANK3, 50, 40, fault=optical_bias(20000.0))
     mean = biased[:, 20:].mean(axis=(0, 1))
-    assert mean[0] > 0.8 and mean[1] < 0.15 and mean[2] < 0.15  # seed 001 Table 3, medium optical
+    assert mean[0] > 0.8 and mean[1] < 0.15 and mean[2] < 0.15  # Lubey & Ely 2022 Table 3, medium optical
 
 
 @pytest.mark.parametrize("tau", [1.0, 3.0])

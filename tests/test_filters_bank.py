@@ -182,7 +182,7 @@ def test_process_noise_bank_resets_polynomial_batches_daily(run):
     assert np.all(bank.stack.P[:, a, 0:6] == 0.0)  # a new batch is uncorrelated with the past
 
 
-def test_ecrv_batch_step_matches_seed_000_eq_25_26(run):
+def test_ecrv_batch_step_matches_chaer1998_eq_25_26(run):
     bank = _bank(run)
     s = bank.stack.layout.index("srp_stoch")
     bank.stack.x[:, s] = 0.02
@@ -260,7 +260,7 @@ def test_presets_flag_the_high_process_noise_filters():
     assert not any(f.high_q for f in preset("nominal").filters)
 
 
-def test_acs_direction_states_follow_seed_001_table_1(run):
+def test_acs_direction_states_follow_lubey_ely_table_1(run):
     bank = _bank(run)
     L = bank.stack.layout
     tilt = L.slices["acs_tilt"]

@@ -1,4 +1,4 @@
-"""The FSW side of seed 000's NGA: the batched acceleration as an ECRV (eqs. 25-26), and cruise
+"""The FSW side of Chaer et al.'s (1998) NGA: the batched acceleration as an ECRV (eqs. 25-26), and cruise
 filters with no ACS, clock or range-bias states."""
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ def _bank(run) -> FilterBank:
     return FilterBank(cfg, run.t0, run.position_km + 10.0, run.velocity_km_s, env=ENV)
 
 
-def test_batch_edge_step_is_seed_000_eq_25_26(run):
+def test_batch_edge_step_is_chaer1998_eq_25_26(run):
     bank = _bank(run)
     L = bank.stack.layout
     assert bank.state_names == ("rx", "ry", "rz", "vx", "vy", "vz", "srp_bias", "srp_stoch",

@@ -1,4 +1,4 @@
-"""Seed 001 chi-square gating network: eq. 8 against a numerical optimiser, the simplex QP, the
+"""Lubey & Ely 2022 chi-square gating network: eq. 8 against a numerical optimiser, the simplex QP, the
 §3.2 rules (G = n_j, batches, reset) and the common network interface."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ def eq5_cost(p, G, Winv, p_prev):
 
 
 def scipy_weights(G, W, p_prev, bounds=False):
-    """Minimise the seed 001 eq. 5/6 cost numerically (SLSQP) under 1ᵀp = 1 (and p >= 0)."""
+    """Minimise the Lubey & Ely 2022 eq. 5/6 cost numerically (SLSQP) under 1ᵀp = 1 (and p >= 0)."""
     Winv = np.linalg.inv(W)
     n = len(G)
     res = minimize(

@@ -1,5 +1,5 @@
-"""Two-sided chi-square network: the seed 001 §3.2 over-inflated-uncertainty weakness reproduced
-with the seed 001 network and removed by the two-sided one."""
+"""Two-sided chi-square network: the Lubey & Ely 2022 §3.2 over-inflated-uncertainty weakness reproduced
+with the Lubey & Ely 2022 network and removed by the two-sided one."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def test_deviance_is_the_scale_likelihood_ratio(G, nu):
     assert scale_deviance(G, nu) == pytest.approx(glr, rel=1e-6, abs=1e-8)
 
 
-def test_cost_equals_seed001_statistic_for_large_residuals():
+def test_cost_equals_lubey_ely_statistic_for_large_residuals():
     G = np.array([10.0, 25.0, 400.0])
     np.testing.assert_allclose(two_sided_cost(G, np.full(3, 10.0), np.zeros(3)), G)
     low = two_sided_cost(np.array([1.0, 5.0, 9.0]), np.full(3, 10.0), np.full(3, 4.0))
@@ -53,7 +53,7 @@ def test_inflated_uncertainty_preferred_by_chi2_but_not_two_sided():
     two = inflated_bank_weights("chi2-two-sided", 21)
     print(f"chi2 final weights [consistent, inflated-R, KF2]: {np.round(one[-1], 4)}")
     print(f"chi2-two-sided final weights:                    {np.round(two[-1], 4)}")
-    assert np.argmax(one[-1]) == 1  # seed 001's weakness: the inflated filter wins
+    assert np.argmax(one[-1]) == 1  # Lubey & Ely's (2022) weakness: the inflated filter wins
     # Two-sided: the inflated filter is ranked last. (KF 2 is also statistically consistent —
     # its G ≈ ν — so a consistency test cannot separate it from the true-parameter filter.)
     assert np.argmin(two[-1]) == 1

@@ -1,4 +1,4 @@
-"""Two-level gating network (seed 000 §III): learning rules against a numerical gradient of
+"""Two-level gating network (Chaer et al. 1998 §III): learning rules against a numerical gradient of
 eq. 8, reduction to the one-level network, and bank selection on the tracking example."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ GROUPS = {"low-noise": ("KF1", "KF5"), "high-noise": ("KF2", "KF3", "KF4")}
 
 
 def eq8(a_top, a_in, group, loglik):
-    """Seed 000 eq. 8 with constant features: l = ln Σ_i g_i Σ_j f_{j|i} g_{j|i}."""
+    """Chaer et al. 1998 eq. 8 with constant features: l = ln Σ_i g_i Σ_j f_{j|i} g_{j|i}."""
     log_top = a_top - logsumexp(a_top)
     total = []
     for gi in range(len(a_top)):

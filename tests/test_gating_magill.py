@@ -9,7 +9,7 @@ import pytest
 from scipy.stats import multivariate_normal
 
 from fsw.gating import make_network
-from fsw.gating.magill import MagillParams, direct_product_weights, gaussian_log_likelihood, seed003_log_density
+from fsw.gating.magill import MagillParams, direct_product_weights, gaussian_log_likelihood, chaer1997_log_density
 from sim.scenarios import chaer_tracking as ct
 from test_chaer_bank import gaussian_loglik, make_records, run_bank
 
@@ -71,20 +71,20 @@ def test_matches_direct_product_before_it_underflows():
     recs = make_records(res[:120], S[:120], run.t[:120])
     net = make_network("magill", recs[0].filters)
     W = np.array([net.update(r).weights for r in recs])
-    # Independent: the literal product Π f of seed 003 eq. 7, normalised per eq. 8, with scipy densities.
+    # Independent: the literal product Π f of Chaer et al. 1997 eq. 7, normalised per eq. 8, with scipy densities.
     dens = np.array([[multivariate_normal(np.zeros(2), S[k, i]).pdf(res[k, i]) for i in range(5)] for k in range(120)])
     prod = np.cumprod(dens, axis=0) / 5
     ref = prod / prod.sum(axis=1, keepdims=True)
     np.testing.assert_allclose(W, ref, rtol=1e-8, atol=1e-250)
 
 
-def test_seed003_density_is_the_papers_scalar_normaliser():
-    # Seed 003 eqs. 7/13/22: f = (2π|W|)^(-1/2) exp(-½ rᵀW⁻¹r), i.e. the 2-variate density × √(2π).
+def test_chaer1997_density_is_the_papers_scalar_normaliser():
+    # Chaer et al. 1997 eqs. 7/13/22: f = (2π|W|)^(-1/2) exp(-½ rᵀW⁻¹r), i.e. the 2-variate density × √(2π).
     run, res, S = experiment_3(0)
     rec = make_records(res[:3], S[:3], run.t[:3])[2]
     ref = [multivariate_normal(mean=np.zeros(2), cov=S[2, i]).logpdf(res[2, i]) + 0.5 * np.log(2 * np.pi)
            for i in range(5)]
-    np.testing.assert_allclose(seed003_log_density(rec), ref, rtol=1e-12)
+    np.testing.assert_allclose(chaer1997_log_density(rec), ref, rtol=1e-12)
     # The constant cancels in eq. 8: the same weights either way.
     ll = gaussian_loglik(res, S)
     a = make_network("magill", rec.filters).update_block(ll)
@@ -98,24 +98,24 @@ def test_experiment_3_product_form_underflows_near_168_log_domain_does_not():
         run, res, S = experiment_3(seed)
         recs = make_records(res, S, run.t)
         ll = gaussian_loglik(res, S)
-        eq7 = np.array([seed003_log_density(r) for r in recs])
+        eq7 = np.array([chaer1997_log_density(r) for r in recs])
         weights, dead = direct_product_weights(eq7)
         assert dead is not None and np.all(np.isnan(weights[dead:]))
-        paper.append(dead + 1)  # 1-based measurement count, as seed 003 counts
+        paper.append(dead + 1)  # 1-based measurement count, as Chaer et al. 1997 counts
         multivariate.append(direct_product_weights(ll)[1] + 1)
         net = make_network("magill", tuple(f"KF{i}" for i in range(1, 6)))
         W = np.array([net.update(r).weights for r in recs])
         assert np.all(np.isfinite(W)) and np.allclose(W.sum(axis=1), 1.0)
         assert np.argmax(W[90:100], axis=1).tolist() == [0] * 10
     print(f"product form underflows after measurement {paper} with the eq. 7 normaliser, "
-          f"{multivariate} with the 2-variate density (seed 003: {ct.PAPER_UNDERFLOW_MEASUREMENT})")
+          f"{multivariate} with the 2-variate density (Chaer et al. 1997: {ct.PAPER_UNDERFLOW_MEASUREMENT})")
     assert 163 <= min(paper) and max(paper) <= 175
     assert abs(np.median(paper) - ct.PAPER_UNDERFLOW_MEASUREMENT) <= 3
     assert 135 <= min(multivariate) and max(multivariate) <= 150
 
 
 def test_experiment_3_magill_switch_statistics():
-    # Seed 003 §V.C: Magill switches to KF 2 after measurement 110. Measured: a median ~20 after the
+    # Chaer et al. 1997 §V.C: Magill switches to KF 2 after measurement 110. Measured: a median ~20 after the
     # change; a switch within 10 is a low-percentile realisation, and those runs underflow near 168.
     names = tuple(f"KF{i}" for i in range(1, 6))
     delays, onsets, dead_fast = [], [], []

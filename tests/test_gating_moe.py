@@ -1,6 +1,6 @@
-"""Mixture-of-experts gating network on the seed 003 §V tracking experiments (against Magill, the
+"""Mixture-of-experts gating network on the Chaer et al. 1997 §V tracking experiments (against Magill, the
 exact Bayesian posterior, and the literal φ = z input of eq. 12), and its learning rule against a
-numerical gradient of the log-likelihood (seed 003 eq. 15)."""
+numerical gradient of the log-likelihood (Chaer et al. 1997 eq. 15)."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ NAMES = tuple(f"KF{i}" for i in range(1, 6))
 
 
 def log_likelihood_of_gate(a: np.ndarray, phi: np.ndarray, loglik: np.ndarray) -> float:
-    """Seed 003 eq. 15/17: l = ln Σ_i f_i exp(u_i) − ln Σ_i exp(u_i), u_i = a_iᵀφ."""
+    """Chaer et al. 1997 eq. 15/17: l = ln Σ_i f_i exp(u_i) − ln Σ_i exp(u_i), u_i = a_iᵀφ."""
     u = a @ phi
     return float(logsumexp(loglik + u) - logsumexp(u))
 
@@ -55,7 +55,7 @@ def test_update_is_gradient_ascent_on_eq15():
 
 
 def moe_history(run, alpha, eta: float, literal_input: bool = False) -> np.ndarray:
-    """Weights after each measurement; ``literal_input``: φ = z_k as printed in seed 003 eq. 12."""
+    """Weights after each measurement; ``literal_input``: φ = z_k as printed in Chaer et al. 1997 eq. 12."""
     res, S = run_bank(run.z, alpha)
     if literal_input:
         fmap, dim = table_feature_map(run.z)
@@ -67,7 +67,7 @@ def moe_history(run, alpha, eta: float, literal_input: bool = False) -> np.ndarr
 
 @pytest.mark.parametrize("experiment", [1, 2])
 def test_experiments_1_and_2_selection_speed(experiment):
-    # Seed 003 §V.A–B reports KF 3 selected "quite rapid" at η = 0.1 and 1. KF 2, 4, 5 are within
+    # Chaer et al. 1997 §V.A–B reports KF 3 selected "quite rapid" at η = 0.1 and 1. KF 2, 4, 5 are within
     # 0.02–0.05 nat per measurement of KF 3 (test_chaer_bank), so the exact Bayesian posterior
     # (Magill) needs ~100–300 measurements and the additive rule at η ≤ 1 is slower still. What is
     # asserted is what holds: the ordering in η (Figs. 6–7), eventual selection at η = 1, and the
@@ -134,7 +134,7 @@ def test_experiment_3_switching_moe_vs_magill():
               f"rise onset->0.9 median {np.median(rise[k])}")
     print(f"runs where Magill switches within 10 ({len(fast)}): gate eta=1 onset {onset['eta1'][fast, 0].tolist()}, "
           f"top {top['eta1'][fast, 0].tolist()}")
-    # First change. Seed 003: gate "switches after measurement 103", Magill after 110.
+    # First change. Chaer et al. 1997: gate "switches after measurement 103", Magill after 110.
     assert np.median(onset["eta1"][:, 0]) <= 5            # the need to switch is seen at once
     assert 6 <= np.median(top["eta1"][:, 0]) <= 14        # taking the top weight takes ~10
     assert 15 <= np.median(top["magill"][:, 0]) <= 28
@@ -149,7 +149,7 @@ def test_experiment_3_switching_moe_vs_magill():
 
 
 def test_literal_measurement_input_freezes_the_gate():
-    # Seed 003 eq. 12 as printed (φ = z_k): the step η|z|² ≥ 10⁴η saturates the softmax within a few
+    # Chaer et al. 1997 eq. 12 as printed (φ = z_k): the step η|z|² ≥ 10⁴η saturates the softmax within a few
     # measurements; which filter wins is set by the start-up transient, not by the data.
     locked_on_kf3 = 0
     for seed in range(10):

@@ -1,4 +1,4 @@
-"""Residual-correlation hypothesis testing (seed 002 eqs. 18–22): periodogram and its nominal
+"""Residual-correlation hypothesis testing (Hanlon & Maybeck 2000 eqs. 18–22): periodogram and its nominal
 statistics against independent computations, and detection of a periodic residual signature
 that a magnitude-only chi-square test at the same false-alarm rate misses."""
 
@@ -73,7 +73,7 @@ def test_detects_periodic_signature_that_chi_square_misses():
     params = {"window": window, "frequencies": (freq,), "lower_bound": 1e-3}
     nominal = residual_runs(rng, runs, length, amplitude, freq, fault=False)
     faulty = residual_runs(rng, runs, length, amplitude, freq, fault=True)
-    # Decision at the end of the run: hypothesis probability above 0.5 (seed 002's declaration).
+    # Decision at the end of the run: hypothesis probability above 0.5 (Hanlon & Maybeck's (2000) declaration).
     rc_false_alarm = np.mean(run_network(nominal, params)[:, -1] > 0.5)
     rc_detect = np.mean(run_network(faulty, params)[:, -1] > 0.5)
     # Magnitude-only test on the same residuals: the whole run's chi-square sum of the filter

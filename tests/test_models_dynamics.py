@@ -48,7 +48,7 @@ def test_clock_process_noise_is_the_integral_of_phi_q_phit():
             assert Q[i, j] == pytest.approx(val, rel=1e-9, abs=1e-300)
 
 
-def test_ecrv_factors_seed_000_eq_25_26():
+def test_ecrv_factors_chaer1998_eq_25_26():
     m, q = ecrv_factors(86400.0, 7 * 86400.0, 0.03)
     assert m == pytest.approx(np.exp(-1 / 7))
     assert q == pytest.approx(0.03**2 * (1 - np.exp(-2 / 7)))

@@ -1,4 +1,4 @@
-"""The periodic pass plan of seed 000's Pathfinder cruise: stations, days, length, cadence."""
+"""The periodic pass plan of Chaer et al.'s (1998) Pathfinder cruise: stations, days, length, cadence."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The validation report's checks of seed 001's orderings: the paper's own tables must pass them,
+"""The validation report's checks of Lubey & Ely's (2022) orderings: the paper's own tables must pass them,
 and tables that break an ordering must fail exactly that check."""
 
 from __future__ import annotations

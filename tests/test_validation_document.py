@@ -50,8 +50,8 @@ def test_table3_section_puts_paper_and_seed_means_side_by_side(tmp_path):
     verdicts = {c.key: c.holds for c in sec.claims}
     assert verdicts["no-bias"] and verdicts["small-radio"] and not verdicts["medium-optical"]
     assert verdicts["magill-fused"]
-    doc = render([sec], generated="today", commands=["navbank campaign seed001-table3"])
-    assert "| Seed 001 Table 3 | medium optical bias: radio > 0.8 and fused lowest | **no** |" in doc
+    doc = render([sec], generated="today", commands=["navbank campaign lubey-ely-table3"])
+    assert "| Lubey & Ely 2022 Table 3 | medium optical bias: radio > 0.8 and fused lowest | **no** |" in doc
 
 
 def test_detection_section_counts_detections_false_alarms_and_classes(tmp_path):

@@ -1,4 +1,4 @@
-"""Seed 001's orderings on reduced versions of the validation campaigns (one seed per case), flown
+"""Lubey & Ely's (2022) orderings on reduced versions of the validation campaigns (one seed per case), flown
 by `navbank campaign` itself. What is asserted is what docs/validation.md reports: the orderings
 that reproduce, and for those that do not, the documented behaviour that replaces them — so a
 change that makes a finding (not) reproduce fails here until the report is regenerated."""
@@ -35,7 +35,7 @@ def _reduced(name: str, tmp_path: Path, drop_cases: tuple[str, ...] = ()) -> Pat
 
 
 def test_table3_orderings(tmp_path):
-    rows = ok_rows(_reduced("seed001-table3", tmp_path))
+    rows = ok_rows(_reduced("lubey-ely-table3", tmp_path))
     assert len(rows) == 7
     chi2 = means(weight_table(rows, "chi2"))
     magill = means(weight_table(rows, "magill"))
@@ -58,7 +58,7 @@ def test_table3_orderings(tmp_path):
 
 
 def test_table4_orderings(tmp_path):
-    rows = ok_rows(_reduced("seed001-table4", tmp_path, drop_cases=("no mis-modelling",)))
+    rows = ok_rows(_reduced("lubey-ely-table4", tmp_path, drop_cases=("no mis-modelling",)))
     assert len(rows) == 2
     for scen, case in (("insight-thrusters", "attitude thruster"), ("insight-process-noise", "process noise")):
         row = weight_table(rows, "chi2", scenario=scen)[case].mean

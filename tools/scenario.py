@@ -66,7 +66,7 @@ def with_fault(cfg: ScenarioConfig, fault: str | None, onset_day: float | None =
 
 def initial_state(cfg: ScenarioConfig, seed: int) -> InitialState:
     """The a-priori state uplinked to the FSW: the design trajectory's initial state plus one draw
-    of the a-priori error of the bank's first filter (seed 001 Table 1: 100 km, 0.1 m/s per axis).
+    of the a-priori error of the bank's first filter (Lubey & Ely 2022 Table 1: 100 km, 0.1 m/s per axis).
 
     Drawn from its own generator so it never changes the simulator's noise draws."""
     if cfg.fsw.initial_state is not None:

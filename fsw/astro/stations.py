@@ -1,7 +1,7 @@
 """Deep Space Network stations: positions, velocities and elevation angles.
 
 ITRF coordinates of the 70 m antennas and of the 34 m high-efficiency antennas DSS 15, 45 and 65
-(the stations of seed 000's Mars Pathfinder cruise) from the DSN Telecommunications Link Design
+(the stations of Chaer et al.'s (1998) Mars Pathfinder cruise) from the DSN Telecommunications Link Design
 Handbook 810-005, module 301 (Rev. M, Table of station locations, ITRF93, epoch 2003.0; also in
 NAIF's earth_topo_201023.tf). DSS 15 and DSS 45 are decommissioned; DSS 65 is at its post-2005
 location, a few metres from where it tracked Pathfinder. Tectonic drift (a few cm/yr) is ignored.

@@ -1,4 +1,4 @@
-"""Anomaly detection and characterization on gating-network weights (seed 001 §5 future work).
+"""Anomaly detection and characterization on gating-network weights (Lubey & Ely 2022 §5 future work).
 
 Modules: ``detector`` (AnomalyDetector, AnomalyState), ``config`` (DetectorConfig and its YAML
 form), ``statistic`` (the nominal band and the detection statistic D), ``persistence`` (k-of-n

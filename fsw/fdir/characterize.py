@@ -1,6 +1,6 @@
 """Characterization decision tree: which filter families do the weights prefer?
 
-Seed 001 §4.3–4.4 characterise anomalies by hand from the chi-square network's weights; this is
+Lubey & Ely 2022 §4.3–4.4 characterise anomalies by hand from the chi-square network's weights; this is
 that reasoning made automatic. Preference is measured as the *excess* weight over the nominal
 band, e = w − mu, so a network whose nominal weights are not uniform (Magill prefers the fused
 filter) is judged against its own normal. The tree:
@@ -8,10 +8,10 @@ filter) is judged against its own normal. The tree:
 1. **Dynamics** (only when the bank holds high-Q/low-Q pairs of the same measurement family):
    the high-Q variants gain weight over their low-Q counterparts (contrast
    a = Σ_f (1_{Q,f}/|Q_f| − 1_{L,f}/|L_f|)). Checked first because a dynamics fault also moves
-   the measurement families (seed 001 Table 4: the optical filters gain weight under thruster
+   the measurement families (Lubey & Ely 2022 Table 4: the optical filters gain weight under thruster
    mis-modeling), whereas a measurement fault moves both variants of a family together.
 2. **Radio-only preferred** (largest family excess, margin over the runner-up) →
-   ``optical-measurement`` (seed 001 Table 3, optical bias: radio 0.90, optical 0.06, fused 0.04).
+   ``optical-measurement`` (Lubey & Ely 2022 Table 3, optical bias: radio 0.90, optical 0.06, fused 0.04).
 3. **Optical-only preferred** → ``radiometric-measurement`` (clock/range; Table 3, large radio
    bias: optical 0.39 vs 0.30).
 4. Otherwise ``unknown`` (no significant preference, or the fused filters preferred).

@@ -1,7 +1,7 @@
 """Automatic anomaly trigger and characterization on a gating network's weights.
 
 This is the "automated method for triggering an anomaly detection by the gating network" and the
-"decision tree to characterize the anomaly using the filter weightings" that seed 001 §5 leaves
+"decision tree to characterize the anomaly using the filter weightings" that Lubey & Ely 2022 §5 leaves
 as future work. After each gating batch the detector
 
 1. computes D, the distance of the weights from the network's nominal band (``statistic.py``);
@@ -113,7 +113,7 @@ class AnomalyDetector:
     ) -> AnomalyState:
         """Consume one gating batch: time tag, weights (in ``filter_names`` order), optionally the
         active mask and the per-filter statistic behind the weights (e.g. the batch chi-square
-        G_k,i of seed 001 eq. 6; reported as evidence only)."""
+        G_k,i of Lubey & Ely 2022 eq. 6; reported as evidence only)."""
         t, w, mask, stat = self._validated(t, weights, filter_names, active, batch_statistic)
         self._last_t = t
         self._batches += 1

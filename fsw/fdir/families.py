@@ -3,7 +3,7 @@
 The characterization decision tree reasons over filter *families*, never over filter names: the
 bank configuration declares, per filter, the measurement families it processes (``radio``,
 ``optical``; ``fused`` is shorthand for both) and whether it carries inflated dynamic process
-noise (the ``-Q`` filters of seed 001 §4.4).
+noise (the ``-Q`` filters of Lubey & Ely 2022 §4.4).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ FUSED = "fused"
 
 @dataclass(frozen=True)
 class FilterFamily:
-    """Family tags of one filter of the bank (seed 001 §4.2 and §4.4)."""
+    """Family tags of one filter of the bank (Lubey & Ely 2022 §4.2 and §4.4)."""
 
     name: str = spec(doc="Filter name, as the bank and the gating network report it")
     families: tuple[str, ...] = spec(

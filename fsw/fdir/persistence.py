@@ -1,6 +1,6 @@
 """k-of-n persistence: declare only when k of the last n batches exceed the threshold.
 
-Seed 002 §III notes that a single threshold crossing on noisy hypothesis statistics gives
+Hanlon & Maybeck 2000 §III notes that a single threshold crossing on noisy hypothesis statistics gives
 momentary false declarations; requiring persistence trades a few batches of delay for a much
 lower false-alarm rate. For calibration, a run's *critical value* is the largest threshold at
 which the k-of-n rule would still declare on it: a window has at least k exceedances of h exactly

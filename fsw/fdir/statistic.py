@@ -1,6 +1,6 @@
 """The detection statistic D: how far a weight vector sits from the network's nominal band.
 
-Seed 001 §3.2/§4.2 reads an anomaly from the chi-square network's weights leaving equality
+Lubey & Ely 2022 §3.2/§4.2 reads an anomaly from the chi-square network's weights leaving equality
 (1/N each); the Magill network is nowhere near equal on nominal runs (it prefers the fused
 filter), so the band is learned per network from nominal runs: a mean vector mu and a covariance
 C of the weights. Each filter's standard deviation gets a floor ``s0`` (C_reg = C + s0^2 I) so a

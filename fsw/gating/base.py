@@ -4,7 +4,7 @@ A gating network sees one :class:`~fsw.filters.record.BankRecord` per measuremen
 weight per filter. The weights sum to one over the *active* filters; a disabled filter
 (``record.active`` False) has weight zero. Networks differ in when they produce new weights:
 per measurement (Magill, mixture of experts, residual correlation) or per batch of M measurements
-(the seed 001 chi-square networks).
+(the Lubey & Ely 2022 chi-square networks).
 
 Rules shared by all networks (enforced here, so each network only writes its own equations):
 
@@ -63,7 +63,7 @@ class WeightsUpdate:
     batch : 0-based index of the update (batch index for batch networks, update count otherwise).
     filters : filter names, bank order.
     weights : (N,) weight per filter, zero for disabled filters, summing to one.
-    statistic : (N,) per-filter statistic behind the weights (e.g. G_k,i of seed 001 eq. 6), or None.
+    statistic : (N,) per-filter statistic behind the weights (e.g. G_k,i of Lubey & Ely 2022 eq. 6), or None.
     group_names, group_weights : hierarchical networks: bank names and top-level weights g_i.
     conditional_weights : hierarchical networks: (N,) in-bank weight g_{j|i} of each filter.
     """
@@ -116,7 +116,7 @@ def log_normalize(log_w: np.ndarray, mask: np.ndarray) -> np.ndarray:
 
 
 def apply_lower_bound(log_p: np.ndarray, mask: np.ndarray, lower_bound: float | None) -> np.ndarray:
-    """Seed 002 §II.B.2 "lower bounding of the conditional probabilities": raise every active
+    """Hanlon & Maybeck 2000 §II.B.2 "lower bounding of the conditional probabilities": raise every active
     probability below ``lower_bound`` to it, taking the excess proportionally from the others,
     so a hypothesis never becomes so improbable that it cannot win back quickly.
 
@@ -334,7 +334,7 @@ class GatingNetwork(ABC):
         return None
 
     def reset(self) -> None:
-        """Return to the a-priori weights (telecommand ``reset-gating``, seed 001 §3.2)."""
+        """Return to the a-priori weights (telecommand ``reset-gating``, Lubey & Ely 2022 §3.2)."""
         self._reset()
 
     def state_dict(self) -> dict[str, Any]:

@@ -1,4 +1,4 @@
-"""The chi-square "optimal" gating network of seed 001 §3 (Lubey & Ely 2022, eqs. 5–8).
+"""The chi-square "optimal" gating network of Lubey & Ely 2022 (§3, eqs. 5–8).
 
 Weights are recomputed once per batch of M measurements (the same batches for every filter, even
 when a batch holds no measurement a filter processes). With G_k = diag(G_k,1 … G_k,N) the batch
@@ -15,12 +15,12 @@ whose stationary point is the closed form of eq. 8:
     p_k = (G_k + W̄⁻¹)⁻¹ [W̄⁻¹ p_{k−1} − λ 1],
     λ   = (1ᵀ (G_k + W̄⁻¹)⁻¹ W̄⁻¹ p_{k−1} − 1) / (1ᵀ (G_k + W̄⁻¹)⁻¹ 1).
 
-Details from seed 001 §3.2: a-priori weights p_0 = 1/N; memory W̄ = σ_W² I with σ_W = 0.05 (any
+Details from Lubey & Ely 2022 §3.2: a-priori weights p_0 = 1/N; memory W̄ = σ_W² I with σ_W = 0.05 (any
 symmetric positive definite W̄ is accepted; ``prior`` sets another p_0); a filter that does not process measurement j is
 scored as nominal, G_k,i,j = n_j (the mean of a χ²_{n_j} variable), so biased data a filter never
 uses cannot penalise it; ``reset`` returns to p_0.
 
-Negative weights. The equality constraint alone does not keep p ≥ 0. Seed 001 argues the cost
+Negative weights. The equality constraint alone does not keep p ≥ 0. Lubey & Ely 2022 argues the cost
 discourages negative weights, and with W̄ = σ_W² I and p_{k−1} ≥ 0 that is usually so, but eq. 8
 does go negative when a filter with a small prior weight is surrounded by much worse ones, or for
 a non-diagonal W̄. A negative weight is meaningless as a probability and breaks the anomaly
@@ -52,21 +52,21 @@ if TYPE_CHECKING:  # the two-sided network derives from this one
 
 @dataclass(frozen=True)
 class Chi2Params:
-    """Parameters of the seed 001 chi-square gating network."""
+    """Parameters of the Lubey & Ely 2022 chi-square gating network."""
 
-    batch_size: int = spec(1000, doc="M: measurements per weight update (seed 001 §3.2 uses 1000)", ge=1)
-    sigma_w: float = spec(0.05, doc="σ_W of the memory matrix W̄ = σ_W² I (seed 001 §3.2)", gt=0.0)
+    batch_size: int = spec(1000, doc="M: measurements per weight update (Lubey & Ely 2022 §3.2 uses 1000)", ge=1)
+    sigma_w: float = spec(0.05, doc="σ_W of the memory matrix W̄ = σ_W² I (Lubey & Ely 2022 §3.2)", gt=0.0)
     memory_matrix: tuple[tuple[float, ...], ...] = spec(
         (), doc="full N×N symmetric positive definite W̄; overrides sigma_w when given"
     )
     substitute_unprocessed: bool = spec(
-        True, doc="score measurements a filter does not process as G = n_j (seed 001 §3.2)"
+        True, doc="score measurements a filter does not process as G = n_j (Lubey & Ely 2022 §3.2)"
     )
     negative_weights: Literal["qp", "clip"] = spec(
         "qp", doc="how a negative eq. 8 weight is handled: exact QP with p >= 0, or clip and renormalise"
     )
     prior: tuple[float, ...] = spec(
-        (), doc="a-priori weights p_0 (bank order, summing to 1); empty: 1/N (seed 001 §3.2)", ge=0.0
+        (), doc="a-priori weights p_0 (bank order, summing to 1); empty: 1/N (Lubey & Ely 2022 §3.2)", ge=0.0
     )
 
 
@@ -99,7 +99,7 @@ def _eqp(H: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def closed_form_weights(G: np.ndarray, W: np.ndarray, p_prev: np.ndarray) -> tuple[np.ndarray, float]:
-    """Seed 001 eq. 8: weights p_k and Lagrange multiplier λ, without a sign constraint.
+    """Lubey & Ely 2022 eq. 8: weights p_k and Lagrange multiplier λ, without a sign constraint.
 
     ``G`` is the (N,) diagonal of G_k (or an (N, N) matrix), ``W`` the memory matrix W̄, ``p_prev``
     the previous weights p_{k−1}.
@@ -154,7 +154,7 @@ def constrained_weights_inv(G: np.ndarray, Winv: np.ndarray, p_prev: np.ndarray,
 
 
 def constrained_weights(G: np.ndarray, W: np.ndarray, p_prev: np.ndarray, tol: float = 1e-12) -> tuple[np.ndarray, float]:
-    """The seed 001 eq. 6 cost minimised over the probability simplex (1ᵀp = 1, p ≥ 0).
+    """The Lubey & Ely 2022 eq. 6 cost minimised over the probability simplex (1ᵀp = 1, p ≥ 0).
 
     Primal active-set method: each sub-problem is eq. 8 over the filters not held at zero;
     returns (p, λ). Equals :func:`closed_form_weights` whenever that is non-negative.
@@ -171,7 +171,7 @@ def clipped_weights_inv(G: np.ndarray, Winv: np.ndarray, p_prev: np.ndarray) -> 
 
 
 def measurement_terms(record: BankRecord, substitute_unprocessed: bool = True) -> np.ndarray:
-    """G_k,i,j of seed 001 eq. 6 for one measurement j, with the §3.2 rule G = n_j for the
+    """G_k,i,j of Lubey & Ely 2022 eq. 6 for one measurement j, with the §3.2 rule G = n_j for the
     filters that do not process it (when ``substitute_unprocessed``)."""
     chi2 = np.asarray(record.chi2, dtype=float)
     if not substitute_unprocessed:
@@ -180,7 +180,7 @@ def measurement_terms(record: BankRecord, substitute_unprocessed: bool = True) -
 
 
 class Chi2Network(GatingNetwork):
-    """Seed 001 chi-square gating network (eqs. 5–8) with batch length M and memory W̄."""
+    """Lubey & Ely 2022 chi-square gating network (eqs. 5–8) with batch length M and memory W̄."""
 
     name = "chi2"
     params_type: ClassVar[type] = Chi2Params
@@ -250,14 +250,14 @@ class Chi2Network(GatingNetwork):
         return None
 
     def flush(self) -> WeightsUpdate | None:
-        """Close the current partial batch now (e.g. at the end of a data arc, seed 001 §3.2:
+        """Close the current partial batch now (e.g. at the end of a data arc, Lubey & Ely 2022 §3.2:
         "batches can be split up by other means"); None if it is empty."""
         if self._count == 0:
             return None
         return self._complete_batch()
 
     def batch_statistic(self) -> np.ndarray:
-        """G_k,i of the batch accumulated so far (seed 001 eq. 6 with the §3.2 substitution)."""
+        """G_k,i of the batch accumulated so far (Lubey & Ely 2022 eq. 6 with the §3.2 substitution)."""
         if self.params.substitute_unprocessed:
             return self._chi2_proc + self._dim_unproc
         return self._chi2_proc + self._chi2_unproc

@@ -1,10 +1,10 @@
-"""Two-sided chi-square gating network: seed 001's network without its preference for filters
-whose uncertainty is over-inflated (seed 001 §3.2, "Preference for Over-Inflated Uncertainty
+"""Two-sided chi-square gating network: Lubey & Ely's (2022) network without its preference for filters
+whose uncertainty is over-inflated (Lubey & Ely 2022 §3.2, "Preference for Over-Inflated Uncertainty
 Metrics", left there as future work).
 
 Derivation
 ----------
-Seed 001 scores filter i over batch k by G_k,i = Σ_j z̄ᵀS⁻¹z̄ and gives weight to the filters with
+Lubey & Ely 2022 scores filter i over batch k by G_k,i = Σ_j z̄ᵀS⁻¹z̄ and gives weight to the filters with
 the smallest G. A filter whose S is too large (inflated R or P) has a *small* G and is preferred,
 although it is as wrong as one whose S is too small.
 
@@ -23,7 +23,7 @@ maximised at ĉ = G/ν. The generalised likelihood-ratio statistic for c = 1 is
 like −ν ln(G/ν) when G ≪ ν — it penalises residuals that are too small as well as too large, and
 asymptotically d ~ χ²₁ for a consistent filter whatever ν is.
 
-To reuse the seed 001 machinery unchanged (eq. 6 cost, eq. 8 closed form / simplex QP, memory W̄,
+To reuse the Lubey & Ely 2022 machinery unchanged (eq. 6 cost, eq. 8 closed form / simplex QP, memory W̄,
 batches, reset), the two-sided network replaces the diagonal G_k,i of eq. 6 by
 
     D_k,i = ν_u + max(G, ν + d(G; ν)),
@@ -32,12 +32,12 @@ where G, ν are the processed part of the batch and ν_u = Σ n_j over the measu
 does not process (they keep the §3.2 value G = n_j, so biased data a filter does not use still
 cannot penalise it). Properties:
 
-* G ≥ ν (residuals too large): ν + d = G − ν ln(G/ν) ≤ G, so D = ν_u + G — exactly seed 001's
+* G ≥ ν (residuals too large): ν + d = G − ν ln(G/ν) ≤ G, so D = ν_u + G — exactly Lubey & Ely's (2022)
   G_k,i; everything the original network detects it still detects, with the same weights.
 * G < ν (residuals too small): D = ν_u + ν + d > ν_u + ν, a penalty that grows without bound as
   the filter's S becomes more inflated (G/ν → 0).
 * Consistent filter: G ≈ ν ± √(2ν) and D ≈ ν_u + ν + O(1) on the low side, so a bank of
-  consistent filters keeps weights ≈ 1/N, as with seed 001.
+  consistent filters keeps weights ≈ 1/N, as with Lubey & Ely 2022.
 * The statistic depends on G only through G/ν and ν, so it is the same for any batch length.
 
 A filter that processed nothing in the batch (ν = 0) scores D = ν_u, i.e. nominal.
@@ -74,7 +74,7 @@ def two_sided_cost(G: np.ndarray, nu: np.ndarray, nu_unprocessed: np.ndarray) ->
 
 @dataclass(frozen=True)
 class Chi2TwoSidedParams:
-    """Parameters of the two-sided chi-square network (same meaning as the seed 001 network's)."""
+    """Parameters of the two-sided chi-square network (same meaning as the Lubey & Ely 2022 network's)."""
 
     batch_size: int = spec(1000, doc="M: measurements per weight update", ge=1)
     sigma_w: float = spec(0.05, doc="σ_W of the memory matrix W̄ = σ_W² I", gt=0.0)
@@ -82,18 +82,18 @@ class Chi2TwoSidedParams:
         (), doc="full N×N symmetric positive definite W̄; overrides sigma_w when given"
     )
     substitute_unprocessed: bool = spec(
-        True, doc="score measurements a filter does not process as nominal (seed 001 §3.2)"
+        True, doc="score measurements a filter does not process as nominal (Lubey & Ely 2022 §3.2)"
     )
     negative_weights: Literal["qp", "clip"] = spec(
         "qp", doc="how a negative eq. 8 weight is handled: exact QP with p >= 0, or clip and renormalise"
     )
     prior: tuple[float, ...] = spec(
-        (), doc="a-priori weights p_0 (bank order, summing to 1); empty: 1/N (seed 001 §3.2)", ge=0.0
+        (), doc="a-priori weights p_0 (bank order, summing to 1); empty: 1/N (Lubey & Ely 2022 §3.2)", ge=0.0
     )
 
 
 class Chi2TwoSidedNetwork(Chi2Network):
-    """Seed 001 network with G_k,i replaced by the two-sided cost D_k,i (see module docstring)."""
+    """Lubey & Ely 2022 network with G_k,i replaced by the two-sided cost D_k,i (see module docstring)."""
 
     name = "chi2-two-sided"
     params_type = Chi2TwoSidedParams

@@ -1,4 +1,4 @@
-"""Hierarchical mixture-of-experts gating (seed 000 §III, eqs. 2–16).
+"""Hierarchical mixture-of-experts gating (Chaer et al. 1998 §III, eqs. 2–16).
 
 The filters are split into K banks (groups). A gate inside bank i weighs its filters, a top-level
 gate weighs the banks; both are softmax cells trained online by gradient ascent:
@@ -13,9 +13,9 @@ gate weighs the banks; both are softmax cells trained online by gradient ascent:
 
 The overall weight of filter j in bank i is g_i · g_{j|i}; updates report both levels. All
 probabilities are computed with log-densities and log-sum-exp. The learning rate may differ per
-level and per bank (seed 000: "This parameter need not be the same for all gating networks").
+level and per bank (Chaer et al. 1998: "This parameter need not be the same for all gating networks").
 Features φ are those of :mod:`fsw.gating.moe` (constant 1 by default, for the reasons given there).
-The gates start equal (zero cell weights), seed 000 §III's "same small values".
+The gates start equal (zero cell weights), Chaer et al. 1998 §III's "same small values".
 
 A bank whose filters are all disabled gets top-level weight zero; filters re-entering a bank (and
 banks re-entering the top level) get the a-priori share of their level, as in the one-level network.
@@ -43,8 +43,8 @@ class HierarchicalParams:
         default_factory=dict,
         doc="bank name -> filter names; every filter in exactly one bank; empty: one bank with all filters",
     )
-    eta_top: float = spec(1.0, doc="learning rate of the top-level gate (seed 000 eq. 15)", gt=0.0)
-    eta_bank: float = spec(1.0, doc="learning rate of the in-bank gates (seed 000 eq. 16)", gt=0.0)
+    eta_top: float = spec(1.0, doc="learning rate of the top-level gate (Chaer et al. 1998 eq. 15)", gt=0.0)
+    eta_bank: float = spec(1.0, doc="learning rate of the in-bank gates (Chaer et al. 1998 eq. 16)", gt=0.0)
     eta_banks: dict[str, float] = spec(default_factory=dict, doc="per-bank learning rates overriding eta_bank")
     features: Literal["constant", "kind"] = spec("constant", doc="input features φ (see the moe network)")
     kinds: tuple[str, ...] = spec((), doc="measurement kinds of the one-hot features (features = 'kind')")
@@ -61,7 +61,7 @@ def _logsumexp_groups(values: np.ndarray, group: np.ndarray, n_groups: int) -> n
 
 
 class HierarchicalNetwork(GatingNetwork):
-    """Seed 000 two-level gating network (per-measurement network)."""
+    """Chaer et al. 1998 two-level gating network (per-measurement network)."""
 
     name = "hierarchical"
     params_type = HierarchicalParams

@@ -1,32 +1,32 @@
-"""Magill's Bayesian filter-bank weights (seed 001 eqs. 1–4, seed 003 eqs. 7–8), in the log domain.
+"""Magill's Bayesian filter-bank weights (Lubey & Ely 2022 eqs. 1–4, Chaer et al. 1997 eqs. 7–8), in the log domain.
 
-Each filter i is a hypothesis α_i; with Gaussian residuals (seed 001 eq. 4)
+Each filter i is a hypothesis α_i; with Gaussian residuals (Lubey & Ely 2022 eq. 4)
 
     f(y_k | α_i) = (2π)^{−n/2} |S_ik|^{−1/2} exp(−½ z̄_ikᵀ S_ik⁻¹ z̄_ik),
 
-the posterior probabilities obey the sequential Bayes rule (seed 001 eq. 3, seed 003 eqs. 7–8)
+the posterior probabilities obey the sequential Bayes rule (Lubey & Ely 2022 eq. 3, Chaer et al. 1997 eqs. 7–8)
 
     p_k,i = f(y_k | α_i) p_{k−1},i / Σ_j f(y_k | α_j) p_{k−1},j,   p_0,i = f(α_i) (uniform by default).
 
-Seed 003 §III notes that evaluating the product Π_k f(y_k | α_i) of eq. 7 directly underflows
+Chaer et al. 1997 §III notes that evaluating the product Π_k f(y_k | α_i) of eq. 7 directly underflows
 (§V.C: after 168 measurements of Experiment 3). Here the recursion is carried on log p and
 normalised with log-sum-exp after every measurement, so the log-probabilities stay bounded (the largest is 0) and
 nothing underflows however long the sequence; a hypothesis can only reach probability exp(−∞)
 by an infinite amount of evidence. :func:`direct_product_weights` evaluates the literal product
 form for validation (it shows where that form fails).
 
-Normalising constant. Seed 003 writes the density of eqs. 7 and 13 with the scalar normaliser
+Normalising constant. Chaer et al. 1997 writes the density of eqs. 7 and 13 with the scalar normaliser
 (2π|W_k|)^{−1/2} (eq. 22 confirms the reading: −ln f = ½(rᵀW⁻¹r + ln 2π|W|)), although the tracking
 example's measurement is a 2-vector, whose density has (2π)^{−n/2}|W|^{−1/2}. The two differ by the
 constant ((n−1)/2) ln 2π per measurement, the same for every filter, so it cancels in eq. 8 (and in
 eq. 16 of the mixture of experts): the networks use the true n-variate density. It does change where
 the *literal product* underflows, because every factor is larger by (2π)^{(n−1)/2}:
-:func:`seed003_log_density` is the paper's form. On Experiment 3 (Table III, 5 × 100, float64 with
+:func:`chaer1997_log_density` is the paper's form. On Experiment 3 (Table III, 5 × 100, float64 with
 gradual underflow, 200 runs) the product dies after measurement 169 (165–173) with the paper's
-normaliser — seed 003 reports 168 — and after 142 (139–145) with the n-variate one. (Reading the
+normaliser — Chaer et al. 1997 reports 168 — and after 142 (139–145) with the n-variate one. (Reading the
 printed 1/(√(2π)|W|) literally, with |W| not square-rooted, gives 128 and contradicts eq. 22.)
 
-Switching (seed 003 §V.C reports that Magill switches to KF 2 "only after measurement 110", i.e.
+Switching (Chaer et al. 1997 §V.C reports that Magill switches to KF 2 "only after measurement 110", i.e.
 10 after the change). Magill never forgets: after segment 1 KF 1 leads KF 2 by ~105 nat (1.06 nat
 per measurement in steady state plus the start-up transient) and segment 2 takes that back at
 ~5.6 nat per measurement. Over 300 runs of Experiment 3 KF 2 takes the largest weight a median 21
@@ -35,12 +35,12 @@ runs the paper-normalised product underflows after measurement 165–170. The pa
 consistent with the model as one such realisation, not with its median. Later changes are not
 followed at all without a lower bound (the lead by then is hundreds of nats).
 
-Optional lower bound (seed 002 §II.B.2, "lower bounding of the conditional probabilities"):
+Optional lower bound (Hanlon & Maybeck 2000 §II.B.2, "lower bounding of the conditional probabilities"):
 after each update, probabilities below ``lower_bound`` are raised to it (the others share the
 rest), so the bank can switch to another filter in a bounded time after a regime change instead
 of having to undo all the evidence accumulated since the start — Magill never forgets otherwise.
 
-All measurements are used, processed or not (seed 001 §2: this is what penalises filters that
+All measurements are used, processed or not (Lubey & Ely 2022 §2: this is what penalises filters that
 only process a subset of the data types).
 """
 
@@ -68,21 +68,21 @@ class MagillParams:
     """Parameters of the Magill (MMAE) network."""
 
     lower_bound: float | None = spec(
-        None, doc="floor on each filter's probability (seed 002 lower bounding); None: no floor", gt=0.0, lt=1.0
+        None, doc="floor on each filter's probability (Hanlon & Maybeck 2000 lower bounding); None: no floor", gt=0.0, lt=1.0
     )
     prior: tuple[float, ...] = spec((), doc="a-priori probabilities f(α_i), bank order; empty: uniform 1/N")
 
 
 def gaussian_log_likelihood(record: BankRecord) -> np.ndarray:
-    """ln f(y_j | α_i) of seed 001 eq. 4 for every filter; rejects a non-positive-definite S."""
+    """ln f(y_j | α_i) of Lubey & Ely 2022 eq. 4 for every filter; rejects a non-positive-definite S."""
     sign, logdet = np.linalg.slogdet(np.asarray(record.S, dtype=float))
     if np.any(sign <= 0.0):
         raise GatingInputError(f"innovation covariance not positive definite in record seq={record.seq}")
     return -0.5 * (np.asarray(record.chi2, dtype=float) + logdet + record.n * np.log(2.0 * np.pi))
 
 
-def seed003_log_density(record: BankRecord) -> np.ndarray:
-    """ln f(z_k | α_i) with seed 003's printed normaliser (eqs. 7, 13, 22): −½(rᵀW⁻¹r + ln 2π|W|).
+def chaer1997_log_density(record: BankRecord) -> np.ndarray:
+    """ln f(z_k | α_i) with Chaer et al.'s (1997) printed normaliser (eqs. 7, 13, 22): −½(rᵀW⁻¹r + ln 2π|W|).
 
     Equals :func:`gaussian_log_likelihood` + ((n−1)/2) ln 2π: the same weights (the constant cancels
     in eqs. 8 and 16), but the absolute scale the paper's product form underflows with."""
@@ -90,9 +90,9 @@ def seed003_log_density(record: BankRecord) -> np.ndarray:
 
 
 def direct_product_weights(loglik: np.ndarray, prior: np.ndarray | None = None) -> tuple[np.ndarray, int | None]:
-    """The literal product form of seed 003 eqs. 7–8 in double precision, for validation.
+    """The literal product form of Chaer et al. 1997 eqs. 7–8 in double precision, for validation.
 
-    ``loglik`` (K, N) holds ln f(y_k | α_i) (use :func:`seed003_log_density` for the paper's
+    ``loglik`` (K, N) holds ln f(y_k | α_i) (use :func:`chaer1997_log_density` for the paper's
     absolute scale). The conditional densities p(z*_k | α_i) =
     Π_{m≤k} f(y_m | α_i) are accumulated as products of exp(ln f) and normalised with the prior.
     Returns the (K, N) weights (NaN once every product has underflowed to zero) and the 0-based

@@ -1,4 +1,4 @@
-"""Mixture-of-experts softmax gating network trained online (seed 003 eqs. 11–20).
+"""Mixture-of-experts softmax gating network trained online (Chaer et al. 1997 eqs. 11–20).
 
 Each filter i is an expert with a gating cell of weight vector a_i. For the input feature vector
 φ = φ(record):
@@ -11,12 +11,12 @@ Each filter i is an expert with a gating cell of weight vector a_i. For the inpu
 Everything is done with log-densities and log-sum-exp, so h never underflows however peaked the
 likelihoods are.
 
-Input features φ. Seed 003 eq. 12 sets u_i = zᵀa_i with the raw measurement z_k as input, and
+Input features φ. Chaer et al. 1997 eq. 12 sets u_i = zᵀa_i with the raw measurement z_k as input, and
 eq. 20 updates a_i along z_k. Here the default is the constant φ = [1] ("constant"): u_i = a_i is
 then a learned log-prior per filter, the gate is the same for every input, and the only thing that
-moves it is filter performance through (h_i − g_i). That is what seed 001 §2 asks of a gating
+moves it is filter performance through (h_i − g_i). That is what Lubey & Ely 2022 §2 asks of a gating
 network for anomaly detection, and it is the reading under which the paper's switching experiment
-(§V.C) works at all. Measured on seed 003's tracking example (``sim.scenarios.chaer_tracking``, tests in
+(§V.C) works at all. Measured on Chaer et al.'s (1997) tracking example (``sim.scenarios.chaer_tracking``, tests in
 ``tests/test_gating_moe.py``) with the literal φ = z_k:
 
 * the effective step is η|z_k|² ≥ 10⁴ η (the velocity alone is 100 m/s), so within the first few
@@ -37,7 +37,7 @@ measurement kind (from ``kinds``) to the constant, so filters can become experts
 any callable ``feature_map`` whose first component is the constant 1 keeps the re-entry rule below
 exact.
 
-Behaviour on seed 003 §V with φ = [1] (the paper's reported numbers in brackets; details and the
+Behaviour on Chaer et al. 1997 §V with φ = [1] (the paper's reported numbers in brackets; details and the
 reasons in ``sim.scenarios.chaer_tracking``):
 
 * the learning is additive with a fading memory (§III): the winning logit lead grows only like
@@ -54,7 +54,7 @@ reasons in ``sim.scenarios.chaer_tracking``):
   after 300), and this additive rule, whose step is η g_i(f_i/f̄ − 1), is slower still: KF 3's
   weight after 100/300/1000 measurements is 0.28/0.51/0.74 (Exp. 1) and 0.30/0.47/0.45 (Exp. 2) at
   η = 1, 0.85/0.97 after 100/300 at η = 7, and stays below 0.3 for 1000 at η = 0.1 (medians of 5
-  runs) [paper: "quite rapid" at η = 0.1 and 1.0]. That part of seed 003 does not reproduce with
+  runs) [paper: "quite rapid" at η = 0.1 and 1.0]. That part of Chaer et al. 1997 does not reproduce with
   a bounded input; with the literal φ = z it looks "rapid" only because the gate freezes at once.
 
 A disabled filter is left out of the softmax (g = 0, no learning). When it is enabled again its
@@ -81,7 +81,7 @@ FeatureMap = Callable[[BankRecord], np.ndarray]
 class MoeParams:
     """Parameters of the mixture-of-experts gating network."""
 
-    eta: float = spec(1.0, doc="learning rate η of the gradient ascent (seed 003 eq. 20)", gt=0.0)
+    eta: float = spec(1.0, doc="learning rate η of the gradient ascent (Chaer et al. 1997 eq. 20)", gt=0.0)
     features: Literal["constant", "kind"] = spec(
         "constant", doc="input features φ: constant 1 (pure performance learner) or constant + one-hot kind"
     )
@@ -101,7 +101,7 @@ def feature_vector(record: BankRecord, features: str, kinds: tuple[str, ...]) ->
 
 def table_feature_map(table: np.ndarray, bias: bool = False) -> tuple[FeatureMap, int]:
     """A feature map serving row ``record.seq`` of ``table`` (K, d) — e.g. the measurement values
-    z_k of a replayed run, the input of seed 003 eq. 12 — optionally prefixed by a constant 1.
+    z_k of a replayed run, the input of Chaer et al. 1997 eq. 12 — optionally prefixed by a constant 1.
 
     Returns ``(feature_map, feature_dim)`` for :class:`MoeNetwork`. A record whose sequence
     number is outside the table raises :class:`GatingInputError`."""
@@ -135,7 +135,7 @@ def reentry_bias(a: np.ndarray, kept: np.ndarray, entering: np.ndarray) -> np.nd
 
 
 class MoeNetwork(GatingNetwork):
-    """Seed 003 softmax gating network with online gradient ascent (per-measurement network)."""
+    """Chaer et al. 1997 softmax gating network with online gradient ascent (per-measurement network)."""
 
     name = "moe"
     params_type = MoeParams
@@ -161,7 +161,7 @@ class MoeNetwork(GatingNetwork):
         return phi
 
     def _reset(self) -> None:
-        # Equal (zero) cell weights: no filter favoured initially (seed 000 §III).
+        # Equal (zero) cell weights: no filter favoured initially (Chaer et al. 1998 §III).
         self._a = np.zeros((len(self.filters), self._dim()))
         self._g = log_normalize(np.zeros(len(self.filters)), self._active)
         self._count = 0

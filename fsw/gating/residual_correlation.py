@@ -1,4 +1,4 @@
-"""Residual-correlation hypothesis testing (seed 002 §II.B, Hanlon & Maybeck 2000, eqs. 18–22).
+"""Residual-correlation hypothesis testing (Hanlon & Maybeck 2000 §II.B, Hanlon & Maybeck 2000, eqs. 18–22).
 
 A mis-modeled periodic input — e.g. attitude-thruster firings at a known cadence that one filter
 does not model — leaves a sinusoid at the firing frequency in that filter's residuals. Its
@@ -9,26 +9,26 @@ filter k is a hypothesis; for each filter this network
    ε_c = z̄_c / √S_cc (so every component has unit variance under the filter's own hypothesis);
 2. keeps the last N normalised residuals (the window) and evaluates the periodogram of each
    component at the configured frequencies f (eq. 20, the squared N-point Fourier transform,
-   which is eq. 19 when cross-correlations between components are neglected as in seed 002):
+   which is eq. 19 when cross-correlations between components are neglected as in Hanlon & Maybeck 2000):
        ψ_{k,c}(f; t_i) = (1/N) |Σ_{n=0}^{N−1} ε_{k,c}(t_{i−n}) exp(−j2π f τ_{i−n})|²,
-   with τ the sample index (``time_base = "sample"``, f in cycles per sample, seed 002's
+   with τ the sample index (``time_base = "sample"``, f in cycles per sample, Hanlon & Maybeck's (2000)
    normalised frequency) or the time tag in seconds (``"time-tag"``, f in Hz — a direct
    Fourier sum, which stays exact for the irregular sampling of deep-space tracking);
 3. forms the residual of the statistic r_kψ = ψ_k − ψ̄_k and its covariance A_kψ under
-   hypothesis k (the conditional mean and covariance of seed 002 §II.B.2), and scores
+   hypothesis k (the conditional mean and covariance of Hanlon & Maybeck 2000 §II.B.2), and scores
    q_ψ = r_kψᵀ A_kψ⁻¹ r_kψ (eq. 22) inside the Gaussian density of eq. 21;
 4. updates the hypothesis probabilities with the MMAE rule (eq. 17) in the log domain, with the
-   seed 002 lower bound on the probabilities.
+   Hanlon & Maybeck 2000 lower bound on the probabilities.
 
 Conditional mean and covariance (``calibration``):
 
 * ``"analytic"`` — under hypothesis k the normalised residuals are white with unit variance, so
-  for any sample times E[ψ] = 1 (the "floor" of seed 002 Fig. 5) and, writing C_f, S_f for the
+  for any sample times E[ψ] = 1 (the "floor" of Hanlon & Maybeck 2000 Fig. 5) and, writing C_f, S_f for the
   cosine and sine sums, Cov(ψ_f, ψ_g) = 2 [Cov(C_f,C_g)² + Cov(S_f,S_g)² + Cov(C_f,S_g)² +
   Cov(S_f,C_g)²] / N² with Cov(C_f, C_g) = Σ_n cos θ_fn cos θ_gn etc. (Isserlis' theorem; = 1 on
   the diagonal for uniform sampling away from 0 and Nyquist). Components are taken independent.
 * ``"learn"`` — sample mean and covariance of each filter's ψ over the first
-  ``calibration_count`` windows (seed 002 used 400 samples), assumed to be nominal operation;
+  ``calibration_count`` windows (Hanlon & Maybeck 2000 used 400 samples), assumed to be nominal operation;
   no weights are produced until then.
 
 Records of other measurement kinds than ``kind`` (if set) are ignored. Updates are produced for
@@ -59,7 +59,7 @@ from fsw.interface.typed import spec
 class ResidualCorrelationParams:
     """Parameters of the residual-correlation (periodogram) hypothesis-testing network."""
 
-    window: int = spec(100, doc="N: residual samples in the periodogram window (seed 002 used 100)", ge=2)
+    window: int = spec(100, doc="N: residual samples in the periodogram window (Hanlon & Maybeck 2000 used 100)", ge=2)
     frequencies: tuple[float, ...] = spec(
         (0.02,), doc="frequencies f of the known excitation (cycles/sample or Hz, see time_base)", ge=0.0
     )
@@ -72,12 +72,12 @@ class ResidualCorrelationParams:
     )
     calibration_count: int = spec(400, doc="windows of nominal operation used by calibration = 'learn'", ge=2)
     lower_bound: float | None = spec(
-        1e-3, doc="floor on each hypothesis probability (seed 002 lower bounding); None: no floor", gt=0.0, lt=1.0
+        1e-3, doc="floor on each hypothesis probability (Hanlon & Maybeck 2000 lower bounding); None: no floor", gt=0.0, lt=1.0
     )
 
 
 def periodogram(eps: np.ndarray, tau: np.ndarray, frequencies: np.ndarray) -> np.ndarray:
-    """Seed 002 eq. 20 per component: eps (W, ..., m) samples at phases τ (W,) → (..., m, F)."""
+    """Hanlon & Maybeck 2000 eq. 20 per component: eps (W, ..., m) samples at phases τ (W,) → (..., m, F)."""
     theta = 2.0 * np.pi * np.outer(tau - tau[0], frequencies)  # (W, F)
     x = np.tensordot(np.exp(-1j * theta), eps, axes=([0], [0]))  # (F, ..., m)
     power = (x.real**2 + x.imag**2) / len(tau)
@@ -94,7 +94,7 @@ def white_noise_covariance(tau: np.ndarray, frequencies: np.ndarray) -> np.ndarr
 
 
 class ResidualCorrelationNetwork(GatingNetwork):
-    """Seed 002 residual-correlation Kalman filter bank hypothesis tester (per-measurement)."""
+    """Hanlon & Maybeck 2000 residual-correlation Kalman filter bank hypothesis tester (per-measurement)."""
 
     name = "residual-correlation"
     params_type = ResidualCorrelationParams
@@ -231,7 +231,7 @@ class ResidualCorrelationNetwork(GatingNetwork):
             return None
         mean, cov_inv, logdet = self._nominal(record.n)
         r = psi - mean
-        q = np.einsum("kd,kde,ke->k", r, cov_inv, r)  # seed 002 eq. 22
+        q = np.einsum("kd,kde,ke->k", r, cov_inv, r)  # Hanlon & Maybeck 2000 eq. 22
         loglik = -0.5 * (q + logdet + r.shape[1] * np.log(2.0 * np.pi))  # eq. 21
         logp = log_normalize(self._logp + np.where(active, loglik, 0.0), active)  # eq. 17
         self._logp = apply_lower_bound(logp, active, self.params.lower_bound)

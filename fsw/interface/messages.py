@@ -137,7 +137,7 @@ class FilterWeights:
     filters: tuple[str, ...] = spec(doc="filter names, bank order")
     weights: tuple[float, ...] = spec(doc="weight per filter; sums to 1 over enabled filters", unit="1")
     groups: dict[str, float] = spec(default_factory=dict, doc="hierarchical networks: top-level weight per bank")
-    statistic: tuple[float, ...] = spec((), doc="per-filter batch statistic behind the weights (e.g. G_k,i of seed 001 eq. 6)")
+    statistic: tuple[float, ...] = spec((), doc="per-filter batch statistic behind the weights (e.g. G_k,i of Lubey & Ely 2022 eq. 6)")
 
     def __post_init__(self) -> None:
         if len(self.filters) != len(self.weights):

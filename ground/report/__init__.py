@@ -1,1 +1,1 @@
-"""Reports of runs and campaigns: figures in the form of seed 001's results and a Markdown summary."""
+"""Reports of runs and campaigns: figures in the form of Lubey & Ely's (2022) results and a Markdown summary."""

@@ -346,7 +346,7 @@ class MeanWeights:
 
 def mean_weights(rows: list[dict], network: str, variant: str = "", which: str = "mean_weights") -> MeanWeights | None:
     """Mean of each run's ``gating.<network>.<which>`` per case (``which``: ``mean_weights`` —
-    full arc, as seed 001 Tables 3/4 — or ``mean_weights_after_onset``, falling back to the full
+    full arc, as Lubey & Ely 2022 Tables 3/4 — or ``mean_weights_after_onset``, falling back to the full
     arc for nominal runs, which have no onset)."""
     rs = [r for r in rows if variant_of(r) == variant and network in (r.get("gating") or {})]
     if not rs:

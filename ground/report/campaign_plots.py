@@ -1,7 +1,7 @@
 """Figures of a fault-injection campaign (a directory with ``runs.jsonl``).
 
 * ``mean_weights_<network>[_<variant>].png`` — mean gating weight per filter per fault case as
-  grouped bars, the layout of seed 001 Tables 3/4; small/medium/large cases of one fault family
+  grouped bars, the layout of Lubey & Ely 2022 Tables 3/4; small/medium/large cases of one fault family
   share a group (lighter → darker), error bars are the run-to-run spread;
   ``mean_weights_after_onset_…`` the same over the faulted part of each run only;
 * ``confusion_matrix.png`` — injected vs diagnosed anomaly class, counts annotated (campaigns
@@ -13,7 +13,7 @@
 * ``weights_vs_time_<network>_<scenario>[_<variant>].png`` — for every network whose weight
   histories the campaign kept (``keep_weights``): weights vs day since scenario start, one panel
   per fault case, per filter the median over seeds with a 10–90 % band, the true fault onset
-  marked (the analogue of seed 001 Figs. 10, 11, 15, 16); nothing when no history was kept;
+  marked (the analogue of Lubey & Ely 2022 Figs. 10, 11, 15, 16); nothing when no history was kept;
 * ``detection_latency.png`` — latency histogram per faulted case;
 * ``detection_probability.png`` — detection probability per case with 95 % exact (Clopper–Pearson) intervals
   (nominal cases: the false-alarm rate).

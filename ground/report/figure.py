@@ -17,13 +17,13 @@ INSTALL_HINT = "pip install 'navbank[plots]'  (or: pip install matplotlib)"
 FIGSIZE = (10.0, 4.0)  # inches
 DPI = 120
 
-#: Colours of seed 001's error figures: error blue, 1-sigma orange, 3-sigma red.
+#: Colours of Lubey & Ely's (2022) error figures: error blue, 1-sigma orange, 3-sigma red.
 ERROR_COLOR = "tab:blue"
 SIGMA1_COLOR = "tab:orange"
 SIGMA3_COLOR = "tab:red"
 
 PALETTE = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:gray", "tab:red")
-#: Filters that carry inflated process noise (seed 001 §4.4) share their base filter's colour, dashed.
+#: Filters that carry inflated process noise (Lubey & Ely 2022 §4.4) share their base filter's colour, dashed.
 HIGH_Q_SUFFIX = "-Q"
 
 

@@ -64,7 +64,7 @@ RUN_CAPTIONS = {
 
 CAMPAIGN_CAPTIONS = {
     "mean_weights_after_onset": "Mean weights after onset",
-    "mean_weights": "Mean weights (seed 001 Tables 3/4)",
+    "mean_weights": "Mean weights (Lubey & Ely 2022 Tables 3/4)",
     "confusion_matrix": "Diagnosis",
     "detection_latency": "Detection latency",
     "detection_probability": "Detection probability",

@@ -5,7 +5,7 @@ Input is any iterable of ``(topic, message)`` pairs — the in-process runner's 
 is). Topics may carry the MCAP leading slash. Messages that did not decode (raw bytes, plain
 JSON) or arrive on unknown topics are counted in :attr:`RunData.skipped`, never fatal.
 
-Hierarchical gating networks (seed 000) publish the top-level bank weights g_i in
+Hierarchical gating networks (Chaer et al. 1998) publish the top-level bank weights g_i in
 ``FilterWeights.groups`` next to the products g_i·g_j|i; :func:`hierarchical_history` splits them
 back into both levels, with the bank membership from the run's configuration
 (:func:`hierarchy_groups_from_config`) or, without one, from the weights themselves.
@@ -72,7 +72,7 @@ class AnomalyTrace:
 
 
 class HierarchicalHistory(NamedTuple):
-    """Both levels of a hierarchical gating network over time (seed 000 eqs. 2-3)."""
+    """Both levels of a hierarchical gating network over time (Chaer et al. 1998 eqs. 2-3)."""
 
     t_s: np.ndarray  # (K,) epochs of the weight updates, TDB s, ascending
     banks: tuple[str, ...]  # B bank names
@@ -215,7 +215,7 @@ def _infer_groups(W: np.ndarray, top: np.ndarray, filters: Sequence[str], banks:
 
 def hierarchical_history(messages_or_weights: Iterable[Any], groups: Mapping[str, Sequence[str]] | None = None, *,
                          network: str | None = None) -> HierarchicalHistory:
-    """Top-level and in-bank weights of a hierarchical gating network over time (seed 000 eqs. 2-3).
+    """Top-level and in-bank weights of a hierarchical gating network over time (Chaer et al. 1998 eqs. 2-3).
 
     ``messages_or_weights``: FilterWeights messages, or ``(topic, …, message)`` items as
     :func:`extract` takes (other items are ignored). Only messages with non-empty ``groups`` count;

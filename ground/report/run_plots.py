@@ -1,8 +1,8 @@
-"""Figures of one run, in the form of seed 001's results figures.
+"""Figures of one run, in the form of Lubey & Ely's (2022) results figures.
 
 * ``weights_<network>.png`` — gating-network weights vs time, one line per filter (Figs. 6, 7,
   10, 11, 15, 16, 20–22), fault onset and anomaly declaration marked;
-* ``hierarchy_<network>.png`` — hierarchical networks (seed 000 Figs. 5–9): the top-level bank
+* ``hierarchy_<network>.png`` — hierarchical networks (Chaer et al. 1998 Figs. 5–9): the top-level bank
   weights g_i, then one panel per bank with its in-bank weights g_j|i, events marked alike;
 * ``position_error_<filter>.png`` — |estimate − truth| with the ±1σ / 3σ RTPC envelope on a log
   axis (Figs. 3–5, 8, 9, 12, 13, 17–19); ``position_error_all.png`` overlays every filter;
@@ -85,7 +85,7 @@ def plot_weights(data: RunData, network: str, path: Path | None = None) -> Any:
 
 
 def plot_hierarchy(data: RunData, network: str, path: Path | None = None) -> Any:
-    """Top-level bank weights g_i, then the in-bank weights g_j|i of each bank (seed 000 Figs. 5–9);
+    """Top-level bank weights g_i, then the in-bank weights g_j|i of each bank (Chaer et al. 1998 Figs. 5–9);
     only the top level when the bank membership is unknown."""
     h = data.hierarchy[network]
     banks = [b for b in h.banks if b in h.in_bank]
@@ -120,7 +120,7 @@ def plot_hierarchy(data: RunData, network: str, path: Path | None = None) -> Any
 
 
 def plot_position_error(data: RunData, label: str, path: Path | None = None) -> Any:
-    """Position error magnitude with the ±1σ / 3σ RTPC envelope, log axis (seed 001 Figs. 3–5)."""
+    """Position error magnitude with the ±1σ / 3σ RTPC envelope, log axis (Lubey & Ely 2022 Figs. 3–5)."""
     tr = data.position[label]
     fig, ax = F.new_figure()
     days = data.day(tr.t_s)
@@ -157,7 +157,7 @@ def plot_position_errors_all(data: RunData, path: Path | None = None) -> Any:
 
 
 def plot_clock_phase(data: RunData, label: str, path: Path | None = None) -> Any:
-    """Estimated minus true clock phase with its 1σ / 3σ bounds, in microseconds (seed 001 Fig. 14)."""
+    """Estimated minus true clock phase with its 1σ / 3σ bounds, in microseconds (Lubey & Ely 2022 Fig. 14)."""
     tr = data.clock[label]
     fig, ax = F.new_figure()
     days = data.day(tr.t_s)

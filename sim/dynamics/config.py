@@ -5,9 +5,9 @@ Spacecraft numbers (InSight in cruise configuration, public NASA/JPL facts):
 * SRP area 8.0 m^2: aeroshell of 2.64 m diameter (5.5 m^2 presented to the Sun) plus the two
   cruise-stage solar arrays (~2.5 m^2 together); Cr = 1.3 (cannonball, mostly absorbing/diffuse).
   This gives ~3.3e-11 km/s^2 of SRP near Mars (1.45 AU), ~7x the ACS level below.
-Stochastic numbers: seed 001 Table 1 (SRP scale factor 0.11 bias, 0.03 temporal, 1-day batches,
+Stochastic numbers: Lubey & Ely 2022 Table 1 (SRP scale factor 0.11 bias, 0.03 temporal, 1-day batches,
 7-day correlation; ACS magnitude 3 % bias, 5 % daily, uncorrelated; 3 deg orientation bias)
-and seed 001 §4.4 (ACS nominal 5e-12 km/s^2; mis-modelled truth 3x bias, 10x daily; scale 10x).
+and Lubey & Ely 2022 §4.4 (ACS nominal 5e-12 km/s^2; mis-modelled truth 3x bias, 10x daily; scale 10x).
 """
 
 from __future__ import annotations
@@ -54,13 +54,13 @@ class ForceModelConfig:
 
     acs_nominal_km_s2: float = spec(5e-12, doc="nominal attitude-thruster acceleration magnitude", unit="km/s^2", ge=0.0)
     acs_scale: float = spec(
-        1.0, doc="multiplier on the true nominal magnitude (10 for the seed 001 §4.4 process-noise case)", unit="1", ge=0.0
+        1.0, doc="multiplier on the true nominal magnitude (10 for the Lubey & Ely 2022 §4.4 process-noise case)", unit="1", ge=0.0
     )
     acs_bias_sigma_rel: float = spec(
-        0.03, doc="1-sigma constant magnitude bias per thruster, fraction of nominal (3.0 in seed 001 §4.4)", unit="1", ge=0.0
+        0.03, doc="1-sigma constant magnitude bias per thruster, fraction of nominal (3.0 in Lubey & Ely 2022 §4.4)", unit="1", ge=0.0
     )
     acs_daily_sigma_rel: float = spec(
-        0.05, doc="1-sigma daily magnitude variation per thruster, fraction of nominal (10.0 in seed 001 §4.4)",
+        0.05, doc="1-sigma daily magnitude variation per thruster, fraction of nominal (10.0 in Lubey & Ely 2022 §4.4)",
         unit="1", ge=0.0,
     )
     acs_batch_days: float = spec(1.0, doc="the daily variation is constant over batches of this length", unit="day", gt=0.0)
@@ -76,7 +76,7 @@ class ForceModelConfig:
     maneuvers: tuple[ManeuverConfig, ...] = spec((), doc="impulsive TCMs, in any order")
     nga_sigma_km_s2: float = spec(
         0.0, doc="steady-state 1-sigma of the non-gravitational acceleration ECRV per inertial axis "
-        "(seed 000 eqs. 25-26); 0 switches it off", unit="km/s^2", ge=0.0,
+        "(Chaer et al. 1998 eqs. 25-26); 0 switches it off", unit="km/s^2", ge=0.0,
     )
     nga_tau_days: float = spec(7.0, doc="correlation time of the non-gravitational acceleration", unit="day", gt=0.0)
     nga_batch_s: float = spec(
@@ -105,12 +105,12 @@ class ForceModelConfig:
 
 
 def thruster_mismodel_truth(forces: ForceModelConfig) -> ForceModelConfig:
-    """Seed 001 §4.4 truth: per-thruster bias sigma 3x nominal, daily sigma 10x nominal."""
+    """Lubey & Ely 2022 §4.4 truth: per-thruster bias sigma 3x nominal, daily sigma 10x nominal."""
     return dataclasses.replace(forces, acs_bias_sigma_rel=3.0, acs_daily_sigma_rel=10.0)
 
 
 def thruster_scale_truth(forces: ForceModelConfig) -> ForceModelConfig:
-    """Seed 001 §4.4 process-noise case: the true nominal thrust is 10x what filters assume."""
+    """Lubey & Ely 2022 §4.4 process-noise case: the true nominal thrust is 10x what filters assume."""
     return dataclasses.replace(forces, acs_scale=10.0)
 
 

@@ -1,16 +1,16 @@
 """One random draw of the truth's uncertain forces: SRP scale factor, ACS thrusting, TCM errors.
 
-* SRP scale factor (seed 001 Table 1): s_k = 1 + b + g_k on batch k, with b ~ N(0, sigma_b^2)
-  and g an exponentially correlated random variable (seed 000 eqs. 25-26):
+* SRP scale factor (Lubey & Ely 2022 Table 1): s_k = 1 + b + g_k on batch k, with b ~ N(0, sigma_b^2)
+  and g an exponentially correlated random variable (Chaer et al. 1998 eqs. 25-26):
   g_0 ~ N(0, sigma^2), g_{k+1} = exp(-dt/tau) g_k + w_k, E[w_k^2] = sigma^2 (1 - exp(-2 dt/tau)).
-* ACS thrusting (seed 001 Table 1 and §4.4): thruster i in batch k has magnitude
+* ACS thrusting (Lubey & Ely 2022 Table 1 and §4.4): thruster i in batch k has magnitude
   scale * nominal * (1 + sigma_bias_rel * beta_i + sigma_daily_rel * delta_ik), beta, delta
   ~ N(0, 1) independent (no correlation between batches). A large §4.4 dispersion can make a
   magnitude negative: the thrust then acts along minus the thruster direction.
   Each thruster direction carries a constant pointing error, N(0, sigma^2) on each of two
   transverse axes.
 * TCM execution errors: N(0, (sigma_rel |dv|)^2) per axis.
-* Non-gravitational acceleration (NGA, seed 000 §V): three independent ECRVs on the inertial
+* Non-gravitational acceleration (NGA, Chaer et al. 1998 §V): three independent ECRVs on the inertial
   axes, constant over batches of ``nga_batch_s`` from t0 and stepping by eq. 25 at each edge:
   x_0 = sigma w_0, x_{k+1} = m x_k + sigma sqrt(1 - m^2) w_{k+1}, m = exp(-T_b/tau), w ~ N(0, 1).
   The normals w are kept so that a level change (fault ``nga-level``) can continue the same

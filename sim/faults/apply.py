@@ -109,7 +109,7 @@ def faulted_forces(forces, window: FaultWindow):
     """The force-model configuration in force while a dynamics fault is active.
 
     ``thruster-mismodel`` sets the per-thruster bias and daily sigmas to the given multiples of
-    the nominal level (seed 001 §4.4); ``thruster-scale`` multiplies the true ACS magnitude;
+    the nominal level (Lubey & Ely 2022 §4.4); ``thruster-scale`` multiplies the true ACS magnitude;
     ``nga-level`` sets the NGA steady-state sigma.
     """
     c = window.config

@@ -18,7 +18,7 @@ type                   magnitude fields                       anomaly class
 =====================  =====================================  ===========================
 
 ``nga-level`` changes the steady-state sigma of the truth's non-gravitational acceleration
-(seed 000 §V: 0.7e-12 -> 7.0e-12 km/s^2 half-way through the cruise). The ECRV is not
+(Chaer et al. 1998 §V: 0.7e-12 -> 7.0e-12 km/s^2 half-way through the cruise). The ECRV is not
 restarted: from the first NGA batch edge at or after the onset it continues the same random
 sequence by eq. 25 with q = sigma_new^2 (1 - exp(-2 dt/tau)) (eq. 26 with the new sigma), so
 its variance relaxes from the old to the new steady state with time constant tau/2, as a

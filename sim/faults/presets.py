@@ -1,4 +1,4 @@
-"""Named fault scenarios: seed 001 Table 2 (measurement biases) and §4.4 (thruster mis-modelling).
+"""Named fault scenarios: Lubey & Ely 2022 Table 2 (measurement biases) and §4.4 (thruster mis-modelling).
 
 Every preset starts at ``DEFAULT_ONSET_DAY`` (day 20 of the 45-day approach) unless the caller
 gives another onset, and lasts to the end of the run.
@@ -28,18 +28,18 @@ def _radio(r_m: float, d_mhz: float) -> tuple[FaultConfig, ...]:
 #: name -> (one-line description, faults)
 FAULT_PRESETS: dict[str, tuple[str, tuple[FaultConfig, ...]]] = {
     "none": ("no fault (nominal run)", ()),
-    "optical-bias-small": ("optical centroid bias 0.2 px sample / 0.3 px line (seed 001 Table 2, small)", _optical(0.2, 0.3)),
-    "optical-bias-medium": ("optical centroid bias 2 px sample / 3 px line (seed 001 Table 2, medium)", _optical(2.0, 3.0)),
-    "optical-bias-large": ("optical centroid bias 20 px sample / 30 px line (seed 001 Table 2, large)", _optical(20.0, 30.0)),
-    "radio-bias-small": ("range bias 5 m with Doppler bias 0.03 mHz (seed 001 Table 2, small)", _radio(5.0, 0.03)),
-    "radio-bias-medium": ("range bias 50 m with Doppler bias 0.3 mHz (seed 001 Table 2, medium)", _radio(50.0, 0.3)),
-    "radio-bias-large": ("range bias 500 m with Doppler bias 3 mHz (seed 001 Table 2, large)", _radio(500.0, 3.0)),
+    "optical-bias-small": ("optical centroid bias 0.2 px sample / 0.3 px line (Lubey & Ely 2022 Table 2, small)", _optical(0.2, 0.3)),
+    "optical-bias-medium": ("optical centroid bias 2 px sample / 3 px line (Lubey & Ely 2022 Table 2, medium)", _optical(2.0, 3.0)),
+    "optical-bias-large": ("optical centroid bias 20 px sample / 30 px line (Lubey & Ely 2022 Table 2, large)", _optical(20.0, 30.0)),
+    "radio-bias-small": ("range bias 5 m with Doppler bias 0.03 mHz (Lubey & Ely 2022 Table 2, small)", _radio(5.0, 0.03)),
+    "radio-bias-medium": ("range bias 50 m with Doppler bias 0.3 mHz (Lubey & Ely 2022 Table 2, medium)", _radio(50.0, 0.3)),
+    "radio-bias-large": ("range bias 500 m with Doppler bias 3 mHz (Lubey & Ely 2022 Table 2, large)", _radio(500.0, 3.0)),
     "clock-bias": (
         "onboard clock steps by 1 us in phase (300 m of range) and 1e-13 in frequency (0.03 mm/s of range rate)",
         (FaultConfig(type="clock-bias", onset_day=_ON, phase_s=1.0e-6, frequency=1.0e-13),),
     ),
     "thruster-mismodel": (
-        "attitude thrusters: per-thruster bias sigma 3x and daily variation sigma 10x the nominal level (seed 001 §4.4)",
+        "attitude thrusters: per-thruster bias sigma 3x and daily variation sigma 10x the nominal level (Lubey & Ely 2022 §4.4)",
         (FaultConfig(type="thruster-mismodel", onset_day=_ON, bias_sigma_factor=3.0, daily_sigma_factor=10.0),),
     ),
     "thruster-scale": (

@@ -1,7 +1,7 @@
-"""The linear 2-state tracking example of seed 003 §V (Chaer, Bishop & Ghosh 1997).
+"""The linear 2-state tracking example of Chaer et al. 1997 §V (Chaer, Bishop & Ghosh 1997).
 
 A target moves in a straight line at a constant velocity of 100 m/s, perturbed by process noise
-(seed 003 eq. 24):
+(Chaer et al. 1997 eq. 24):
 
     x_{k+1} = [[1, Δt], [0, 1]] x_k + w_k,   x = [range, velocity],   Δt = 1 s,
 
@@ -61,51 +61,51 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 DT = 1.0
-"""Measurement interval Δt [s] (seed 003 §V)."""
+"""Measurement interval Δt [s] (Chaer et al. 1997 §V)."""
 
 TRUE_INITIAL_STATE = (0.0, 100.0)
-"""Truth x₀: range 0 m, velocity 100 m/s (seed 003 §V: constant velocity of 100 m/s)."""
+"""Truth x₀: range 0 m, velocity 100 m/s (Chaer et al. 1997 §V: constant velocity of 100 m/s)."""
 
 FILTER_INITIAL_STATE = (0.0, 0.0)
-"""Filter a-priori x̂₀⁻ (seed 003 §V)."""
+"""Filter a-priori x̂₀⁻ (Chaer et al. 1997 §V)."""
 
 FILTER_INITIAL_COVARIANCE = ((1000.0, 0.0), (0.0, 1000.0))
-"""Filter a-priori P₀⁻ (seed 003 §V)."""
+"""Filter a-priori P₀⁻ (Chaer et al. 1997 §V)."""
 
 TRANSITION = ((1.0, DT), (0.0, 1.0))
-"""State transition matrix Φ of seed 003 eq. 24."""
+"""State transition matrix Φ of Chaer et al. 1997 eq. 24."""
 
 MEASUREMENT_MATRIX = ((1.0, 0.0), (0.0, 1.0))
-"""Observation matrix H of seed 003 eq. 25."""
+"""Observation matrix H of Chaer et al. 1997 eq. 25."""
 
-# Rows are filters KF 1..KF 5, columns α = [q1, q2, r1, r2] (seed 003 eq. 26).
+# Rows are filters KF 1..KF 5, columns α = [q1, q2, r1, r2] (Chaer et al. 1997 eq. 26).
 TABLE_I = ((1.0, 1.0, 1.0, 1.0), (9.0, 9.0, 25.0, 25.0), (16.0, 16.0, 16.0, 16.0),
            (25.0, 25.0, 9.0, 9.0), (5.0, 20.0, 25.0, 10.0))
-"""Seed 003 Table I: filter bank containing the optimal filter (KF 3)."""
+"""Chaer et al. 1997 Table I: filter bank containing the optimal filter (KF 3)."""
 
 TABLE_I_TRUTH = TABLE_I[2]
 """Experiment 1 truth: KF 3's parameters."""
 
 TABLE_II = ((1.0, 1.0, 1.0, 1.0), (9.0, 9.0, 25.0, 25.0), (12.0, 12.0, 20.0, 20.0),
             (25.0, 25.0, 9.0, 9.0), (5.0, 20.0, 25.0, 10.0))
-"""Seed 003 Table II: filter bank not containing the optimal filter KF*."""
+"""Chaer et al. 1997 Table II: filter bank not containing the optimal filter KF*."""
 
 TABLE_II_TRUTH = (16.0, 16.0, 16.0, 16.0)
 """Experiment 2 truth: KF* of Table II."""
 
 TABLE_III = ((1.0, 1.0, 1.0, 1.0), (10.0, 25.0, 1.0, 1.0), (10.0, 10.0, 16.0, 16.0),
              (5.0, 25.0, 2.0, 25.0), (1.0, 1.0, 2.0, 50.0))
-"""Seed 003 Table III: filter bank of the switching experiment; sub-sequence s uses row s."""
+"""Chaer et al. 1997 Table III: filter bank of the switching experiment; sub-sequence s uses row s."""
 
 EXPERIMENT_3_SEGMENT_LENGTH = 100
-"""Length of each of the five sub-sequences of Experiment 3 (seed 003 §V.C)."""
+"""Length of each of the five sub-sequences of Experiment 3 (Chaer et al. 1997 §V.C)."""
 
 
 PAPER_UNDERFLOW_MEASUREMENT = 168
-"""Seed 003 §V.C: Magill's product form underflows after this many measurements of Experiment 3."""
+"""Chaer et al. 1997 §V.C: Magill's product form underflows after this many measurements of Experiment 3."""
 
 PAPER_SWITCH_MEASUREMENT = {"moe": 103, "magill": 110}
-"""Seed 003 §V.C: measurement after which each scheme switches from KF 1 to KF 2 (η = 1 gate)."""
+"""Chaer et al. 1997 §V.C: measurement after which each scheme switches from KF 1 to KF 2 (η = 1 gate)."""
 
 
 class TrackingRun(NamedTuple):
@@ -139,7 +139,7 @@ def generate(
     x0: Sequence[float] = TRUE_INITIAL_STATE,
 ) -> TrackingRun:
     """Simulate a piecewise-stationary sequence: segment s has length ``lengths[s]`` and noise
-    variances ``params[s] = (q1, q2, r1, r2)`` (seed 003 eqs. 24–25).
+    variances ``params[s] = (q1, q2, r1, r2)`` (Chaer et al. 1997 eqs. 24–25).
 
     The state is continuous across segment boundaries; only the noise statistics change.
     """
@@ -166,17 +166,17 @@ def generate(
 
 
 def experiment_1(rng: np.random.Generator, length: int = 300) -> TrackingRun:
-    """Experiment 1 (seed 003 §V.A): truth with KF 3's Table I parameters."""
+    """Experiment 1 (Chaer et al. 1997 §V.A): truth with KF 3's Table I parameters."""
     return generate([TABLE_I_TRUTH], length, rng)
 
 
 def experiment_2(rng: np.random.Generator, length: int = 300) -> TrackingRun:
-    """Experiment 2 (seed 003 §V.B): truth with KF* = [16 16 16 16] (Table II)."""
+    """Experiment 2 (Chaer et al. 1997 §V.B): truth with KF* = [16 16 16 16] (Table II)."""
     return generate([TABLE_II_TRUTH], length, rng)
 
 
 def experiment_3(rng: np.random.Generator, segment_length: int = EXPERIMENT_3_SEGMENT_LENGTH) -> TrackingRun:
-    """Experiment 3 (seed 003 §V.C): five sub-sequences, sub-sequence s matching KF s of Table III."""
+    """Experiment 3 (Chaer et al. 1997 §V.C): five sub-sequences, sub-sequence s matching KF s of Table III."""
     return generate(TABLE_III, segment_length, rng)
 
 
@@ -195,7 +195,7 @@ def switch_delays(
 
     ``weights`` (K, N) has one row per measurement; sub-sequence s (0-based) should select filter s.
     For each change s = 1..K/segment_length − 1, counting the first measurement of the new
-    sub-sequence as 1 (seed 003's "after measurement 103" for a change after 100 is a delay of 3):
+    sub-sequence as 1 (Chaer et al.'s (1997) "after measurement 103" for a change after 100 is a delay of 3):
 
     * ``rule = "top"``: until filter s first has the largest weight;
     * ``rule = "onset"``: until the filter that was on top at the end of sub-sequence s − 1 first has

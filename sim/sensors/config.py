@@ -9,7 +9,7 @@ Default noise levels and their sources:
   onboard clock's short-term instability.
 * Optical centroiding 0.25 px for the point-like moons, and max(0.25 px, 1e-3 x apparent
   diameter) for Mars, whose centre is found from a limb fit whose error grows with the disc.
-  Seed 001 Table 2 calls its 0.2/0.3 px "small" bias "on the order of uncertainty in the
+  Lubey & Ely 2022 Table 2 calls its 0.2/0.3 px "small" bias "on the order of uncertainty in the
   measurements", which this matches.
 * Attitude knowledge 5 urad per axis (1-sigma): star-tracker class, ~0.2 px at 24 urad/px.
 
@@ -20,7 +20,7 @@ image every 30 min cycling Mars, Phobos, Deimos (the next visible target if the 
 is not). Over 45 days: ~24,000 Doppler, ~2,400 range and ~2,100 optical measurements.
 
 Pass plan (``pass_plan``, replaces the daily schedule when given): each entry is one station
-with its own periodic passes, e.g. seed 000's Mars Pathfinder cruise tracking, one 4-hour pass
+with its own periodic passes, e.g. Chaer et al.'s (1998) Mars Pathfinder cruise tracking, one 4-hour pass
 a week per station, first passes on days 7 (DSS 15), 10 (DSS 45) and 12 (DSS 65). A pass on
 day d is centred on the spacecraft's highest elevation at that station during
 [start + d days, start + d + 1 days) (sampled every 10 min), so the station sees it.

@@ -1,6 +1,6 @@
 """One-way uplink range and Doppler from the DSN, received and time-tagged by the onboard clock.
 
-Observables (seed 001 §4.1: one-way radiometric data with a DSAC-class onboard clock):
+Observables (Lubey & Ely 2022 §4.1: one-way radiometric data with a DSAC-class onboard clock):
 
 * **Range** [km]: ``rho = c (T_rx - t_tx)`` where ``T_rx = t_rx + b(t_rx)`` is the onboard clock
   reading at the true reception time t_rx (b = clock phase error, :mod:`sim.clock`) and t_tx the

@@ -1,6 +1,6 @@
 """Built-in trajectory ``pathfinder-cruise``: a Mars Pathfinder-like Type-I Earth-Mars cruise.
 
-Construction (seed 000 §V flies the Mars Pathfinder cruise; launch 1996-12-04 06:58:07 UTC,
+Construction (Chaer et al. 1998 §V flies the Mars Pathfinder cruise; launch 1996-12-04 06:58:07 UTC,
 Mars arrival 1997-07-04, public NASA/JPL facts):
 
 1. Lambert (Sun two-body, zero revolutions, prograde short way; :mod:`sim.trajectories.lambert`)

@@ -51,7 +51,7 @@ class Flight:
 
     @property
     def rtpc(self) -> np.ndarray:
-        """(N, K) root of the trace of the position covariance (seed 001 §4.2)."""
+        """(N, K) root of the trace of the position covariance (Lubey & Ely 2022 §4.2)."""
         return np.sqrt(np.trace(self.cov[:, :, 0:3, 0:3], axis1=2, axis2=3))
 
     @property

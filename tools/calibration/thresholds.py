@@ -30,7 +30,7 @@ calibrates from weight histories already at hand):
    put the declaration threshold close to high per-batch quantiles). The CUSUM reference is the
    ``onset_quantile`` of the per-batch nominal D, capped at clear_threshold.
 
-Seed 002 §III: false alarms grow as the detectable signal shrinks, and should be measured
+Hanlon & Maybeck 2000 §III: false alarms grow as the detectable signal shrinks, and should be measured
 statistically — hence a calibrated threshold with a confidence interval rather than a fixed
 probability threshold.
 """

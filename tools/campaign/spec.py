@@ -35,7 +35,7 @@ the same bank records and a detector is a pure function of its network's weight 
 statistics of several detectors come from one set of runs (each counts as its own detector
 variant, labelled ``<variant> / <network>``).
 
-Blocks exist because some fault cases only make sense with some banks (seed 001 Table 4 pairs
+Blocks exist because some fault cases only make sense with some banks (Lubey & Ely 2022 Table 4 pairs
 each dynamics fault with its own six-filter bank).
 """
 

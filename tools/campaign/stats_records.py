@@ -190,7 +190,7 @@ class WeightTableRow(JsonRecord):
 
 @dataclass(frozen=True)
 class WeightTable(JsonRecord):
-    """Mean weights of one network per fault case (seed 001 Tables 3 and 4 layout)."""
+    """Mean weights of one network per fault case (Lubey & Ely 2022 Tables 3 and 4 layout)."""
 
     scenario: str = spec(doc="scenario")
     variant: str = spec(doc="variant")

@@ -2,14 +2,14 @@
 
 Run the four built-in validation campaigns first (each resumes if interrupted), then this command:
 
-    navbank campaign seed001-table3 --out campaigns/seed001-table3
-    navbank campaign seed001-table4 --out campaigns/seed001-table4
+    navbank campaign lubey-ely-table3 --out campaigns/lubey-ely-table3
+    navbank campaign lubey-ely-table4 --out campaigns/lubey-ely-table4
     navbank campaign detection-matrix --out campaigns/detection-matrix
     navbank campaign overinflated --out campaigns/overinflated
     navbank validation-report --campaigns campaigns --out docs
 
-It reads the campaigns' runs, draws their figures (``navbank report``), runs the seed 003
-tracking experiments (~15 s) and the seed 000 Pathfinder cruise (one in-process run, ~1 min), and
+It reads the campaigns' runs, draws their figures (``navbank report``), runs the Chaer et al. 1997
+tracking experiments (~15 s) and the Chaer et al. 1998 Pathfinder cruise (one in-process run, ~1 min), and
 writes OUT/validation.md with OUT/figures/. A campaign directory that is missing leaves its
 section out (the command says which). Exit codes: 0 written, 2 bad arguments or no matplotlib.
 """
@@ -30,7 +30,7 @@ def add_arguments(p) -> None:
     p.add_argument("--campaigns", metavar="DIR", default="campaigns",
                    help="directory holding the campaign directories (default ./campaigns)")
     p.add_argument("--out", metavar="DIR", default="docs", help="where validation.md and figures/ go (default ./docs)")
-    p.add_argument("--no-cruise", action="store_true", help="leave out the seed 000 cruise run")
+    p.add_argument("--no-cruise", action="store_true", help="leave out the Chaer et al. 1998 cruise run")
 
 
 def run(args) -> int:

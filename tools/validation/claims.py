@@ -1,4 +1,4 @@
-"""The qualitative findings of seed 001 Tables 3 and 4, as checks on navbank's mean weight tables.
+"""The qualitative findings of Lubey & Ely 2022 Tables 3 and 4, as checks on navbank's mean weight tables.
 
 Each check returns a :class:`Claim`: the paper's statement, whether navbank's numbers satisfy it,
 and the numbers that decide it. The validation report prints them; the slow tests
@@ -37,7 +37,7 @@ def _bottom(row: Mapping[str, float]) -> str:
 
 
 def table3_claims(chi2: Table, magill: Table | None = None) -> list[Claim]:
-    """Seed 001 Table 3 / Figs. 10, 11, 15, 16 orderings (issue thresholds)."""
+    """Lubey & Ely 2022 Table 3 / Figs. 10, 11, 15, 16 orderings (issue thresholds)."""
     out: list[Claim] = []
     nb = chi2["no bias"]
     n = len(nb)
@@ -67,7 +67,7 @@ def table3_claims(chi2: Table, magill: Table | None = None) -> list[Claim]:
 
 
 def table4_claim(case: str, row: Mapping[str, float]) -> Claim:
-    """Seed 001 Table 4: optical / optical-Q highest, the low-Q radio and fused filters lowest."""
+    """Lubey & Ely 2022 Table 4: optical / optical-Q highest, the low-Q radio and fused filters lowest."""
     ranked = sorted(row, key=row.__getitem__)
     ok = _top(row) in ("optical", "optical-Q") and set(ranked[:2]) == {"radio", "fused"}
     return Claim(f"table4-{case}", f"{case}: optical or optical-Q highest, low-Q radio and fused lowest", ok,

@@ -1,8 +1,8 @@
 """docs/validation.md: the papers' findings next to navbank's, with the commands that produce them.
 
 The document is generated, never edited by hand: every number in it comes from the campaign
-directories given to ``navbank validation-report`` or from the experiments it runs itself (seed 003's
-linear tracking bank, seed 000's Pathfinder cruise), and every verdict ("reproduces" / "does not
+directories given to ``navbank validation-report`` or from the experiments it runs itself (Chaer et al.'s (1997)
+linear tracking bank, Chaer et al.'s (1998) Pathfinder cruise), and every verdict ("reproduces" / "does not
 reproduce") is computed from those numbers by :mod:`tools.validation.claims`. The explanations are
 fixed text about mechanisms that were checked when the report was written; the verdict next to
 each tells whether it still applies.
@@ -25,7 +25,7 @@ from tools.validation.claims import TABLE3_CASES, Claim, table3_claims, table4_c
 from tools.validation.section import Section, claims_lines, figure_links, table
 from tools.validation.tables import WeightRow, means, ok_rows, weight_table
 
-CAMPAIGNS = ("seed001-table3", "seed001-table4", "detection-matrix", "overinflated")
+CAMPAIGNS = ("lubey-ely-table3", "lubey-ely-table4", "detection-matrix", "overinflated")
 
 
 def _w(row: WeightRow | None, names: tuple[str, ...], std: bool = True) -> list[str]:
@@ -47,18 +47,18 @@ def copy_figures(src_dir: Path, patterns: tuple[str, ...], dst_dir: Path, prefix
     return out
 
 
-# -- seed 001 Table 3 -------------------------------------------------------------------------------
+# -- Lubey & Ely 2022 Table 3 -------------------------------------------------------------------------------
 
 def table3_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
-    s = Section("Seed 001 Table 3: measurement biases, three-filter bank")
+    s = Section("Lubey & Ely 2022 Table 3: measurement biases, three-filter bank")
     rows = ok_rows(camp)
     chi2 = weight_table(rows, "chi2")
     magill = weight_table(rows, "magill")
     missing = [c for c in TABLE3_CASES if c not in chi2]
     n = min((r.n for r in chi2.values()), default=0)
     s.lines += [
-        "Scenario `insight-approach` (45-day InSight-like approach, radio / optical / fused bank, seed 001 "
-        "§4.1 and Table 1), faults from seed 001 Table 2 present over the whole arc (onset day 0), "
+        "Scenario `insight-approach` (45-day InSight-like approach, radio / optical / fused bank, Lubey & Ely 2022 "
+        "§4.1 and Table 1), faults from Lubey & Ely 2022 Table 2 present over the whole arc (onset day 0), "
         f"{n} seeds per case. The chi-square network uses the paper's M = 1000 measurements per batch and "
         "σ_W = 0.05 unchanged: navbank's approach has 28,610 measurements (23,930 Doppler, 2,520 range, "
         "2,160 optical), the same order as the paper's (its Fig. 22 runs past measurement 30,000), so a "
@@ -67,8 +67,8 @@ def table3_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
         "over seeds (± is the standard deviation over seeds).",
         "",
         "```bash",
-        "navbank campaign seed001-table3 --out campaigns/seed001-table3",
-        "navbank report campaigns/seed001-table3",
+        "navbank campaign lubey-ely-table3 --out campaigns/lubey-ely-table3",
+        "navbank report campaigns/lubey-ely-table3",
         "```",
         "",
     ]
@@ -83,7 +83,7 @@ def table3_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
     s.lines += table(["case", "paper radio", "paper optical", "paper fused", "navbank radio", "navbank optical",
                        "navbank fused", "Magill radio", "Magill optical", "Magill fused"], body)
     s.claims = table3_claims(means(chi2), means(magill))
-    s.lines += ["", "Findings (the orderings of seed 001 §4.3):", "", *claims_lines(s.claims), ""]
+    s.lines += ["", "Findings (the orderings of Lubey & Ely 2022 §4.3):", "", *claims_lines(s.claims), ""]
     s.lines += figure_links(figures, doc_dir)
     return s
 
@@ -103,7 +103,7 @@ paper's optical-only filter was penalised as well (weights 0.064 and 0.032), whi
 must have made detectable through something navbank does not model (the paper's filter estimates
 Earth-platform, troposphere/ionosphere and ephemeris parameters we leave out; its optical setup
 follows Ely et al. and is not fully specified). The chi-square network itself is not the cause: with
-the same data it follows seed 001 eq. 8 to 1e-8 (tests/test_gating_chi2.py) and the detector
+the same data it follows Lubey & Ely 2022 eq. 8 to 1e-8 (tests/test_gating_chi2.py) and the detector
 separates the optical cases from nominal. When the bias appears mid-arc, after the optical-only filter
 has converged (the built-in presets, onset day 20 — the after-onset table of the detection-matrix section),
 the paper's ordering appears: for the large bias radio 0.98 / optical 0.02 / fused 0.004 against the paper's
@@ -124,22 +124,22 @@ filter; the paper 0.3899).
 """
 
 
-# -- seed 001 Table 4 -------------------------------------------------------------------------------
+# -- Lubey & Ely 2022 Table 4 -------------------------------------------------------------------------------
 
 def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
-    s = Section("Seed 001 Table 4: dynamics mis-modelling, six-filter banks")
+    s = Section("Lubey & Ely 2022 Table 4: dynamics mis-modelling, six-filter banks")
     rows = ok_rows(camp)
     s.lines += [
         "Scenario `insight-thrusters` (bank `acs-q`: radio / optical / fused with the nominal ACS model, and "
         "-Q copies modelling a 300 % bias and 1000 % daily variation of the ACS magnitude; truth thrusters with "
-        "3× nominal bias and 10× nominal daily variation, seed 001 §4.4) and `insight-process-noise` (bank "
+        "3× nominal bias and 10× nominal daily variation, Lubey & Ely 2022 §4.4) and `insight-process-noise` (bank "
         "`process-noise-q`: batched 1-day polynomial acceleration with a-priori 5e-12 km/s² (low-Q) and "
         "5e-11 km/s² (-Q), SRP estimated as a bias only; truth ACS magnitude 10× what the filters assume). "
         "The mis-modelling is present over the whole arc, as in the paper. chi2 with M = 1000, σ_W = 0.05.",
         "",
         "```bash",
-        "navbank campaign seed001-table4 --out campaigns/seed001-table4",
-        "navbank report campaigns/seed001-table4",
+        "navbank campaign lubey-ely-table4 --out campaigns/lubey-ely-table4",
+        "navbank report campaigns/lubey-ely-table4",
         "```",
         "",
     ]
@@ -171,7 +171,7 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
         detector_lines.append(f"* detector (chi2, calibrated for this bank), {label}: declared in "
                               f"{len(declared)}/{len(runs)} runs, diagnosed {', '.join(classes) or 'nothing'}")
     s.lines += [""] + table(["scenario", "filter", "paper", "navbank (fault)", "navbank (no fault)"], body)
-    s.lines += ["", "Findings (seed 001 §4.4):", "", *claims_lines(s.claims), *detector_lines, ""]
+    s.lines += ["", "Findings (Lubey & Ely 2022 §4.4):", "", *claims_lines(s.claims), *detector_lines, ""]
     s.lines += figure_links(figures, doc_dir)
     return s
 
@@ -193,13 +193,13 @@ still declares in every process-noise run, but the -Q margin is too small for th
 """
 
 
-# -- seed 003 ---------------------------------------------------------------------------------------
+# -- Chaer et al. 1997 ---------------------------------------------------------------------------------------
 
-def seed003_section(results: Any, figure: Path, doc_dir: Path) -> Section:
-    s = Section("Seed 003 §V: mixture-of-experts gate against Magill on `chaer-tracking`")
+def chaer1997_section(results: Any, figure: Path, doc_dir: Path) -> Section:
+    s = Section("Chaer et al. 1997 §V: mixture-of-experts gate against Magill on `chaer-tracking`")
     r = results
     s.lines += [
-        "The 2-state tracking example of seed 003 §V (Tables I–III; Experiment 3 = five 100-measurement "
+        "The 2-state tracking example of Chaer et al. 1997 §V (Tables I–III; Experiment 3 = five 100-measurement "
         "segments, each generated with the parameters of the next filter), generated by "
         "`sim.scenarios.chaer_tracking`, filtered by navbank's linear bank and gated by navbank's `magill` "
         "(eqs. 7–8, log domain) and `moe` (eqs. 11–20, φ = [1]) networks. "
@@ -232,12 +232,12 @@ def seed003_section(results: Any, figure: Path, doc_dir: Path) -> Section:
               r.selection[1]["gate eta=1"][-1] > 0.5 and r.selection[1]["gate eta=1"][0] > 0.5,
               f"η = 1: KF 3 weight {r.selection[1]['gate eta=1']} (Exp. 1); η = 7: {r.selection[1]['gate eta=7']}"),
         Claim("s3-first", "first change: the gate switches before Magill, both within ~10 of the paper "
-              f"(paper: after measurement {paper.SEED003_SWITCH['gate']} and {paper.SEED003_SWITCH['magill']})",
-              gate1 < mag1 and abs(gate1 - (paper.SEED003_SWITCH["gate"] - 100)) <= 10
-              and abs(mag1 - (paper.SEED003_SWITCH["magill"] - 100)) <= 10,
+              f"(paper: after measurement {paper.CHAER1997_SWITCH['gate']} and {paper.CHAER1997_SWITCH['magill']})",
+              gate1 < mag1 and abs(gate1 - (paper.CHAER1997_SWITCH["gate"] - 100)) <= 10
+              and abs(mag1 - (paper.CHAER1997_SWITCH["magill"] - 100)) <= 10,
               f"median: gate (η = 1) after measurement {100 + gate1:g}, Magill after {100 + mag1:g}"),
-        Claim("s3-underflow", f"Magill's product form underflows near measurement {paper.SEED003_UNDERFLOW}",
-              bool(abs(np.median(und) - paper.SEED003_UNDERFLOW) <= 3),
+        Claim("s3-underflow", f"Magill's product form underflows near measurement {paper.CHAER1997_UNDERFLOW}",
+              bool(abs(np.median(und) - paper.CHAER1997_UNDERFLOW) <= 3),
               f"after measurement {int(und.min())}–{int(und.max())} (median {np.median(und):g}) over {und.size} runs; "
               "navbank's log-domain Magill never underflows (10⁶ measurements tested)"),
         Claim("s3-eta", "larger η switches faster",
@@ -249,8 +249,8 @@ def seed003_section(results: Any, figure: Path, doc_dir: Path) -> Section:
     return s
 
 
-SEED003_DISCUSSION = """\
-**Differences.** Seed 003 reports KF 3 selected "quite rapidly" in Experiments 1–2 at η = 1; navbank's gate
+CHAER1997_DISCUSSION = """\
+**Differences.** Chaer et al. 1997 reports KF 3 selected "quite rapidly" in Experiments 1–2 at η = 1; navbank's gate
 needs η ≈ 7 for that. The filters of Tables I–II are close: KF 2, 4, 5 are within 0.02–0.05 nat per
 measurement of KF 3 (computed analytically and by Monte Carlo in tests/test_chaer_bank.py), so even the exact
 Bayesian posterior (Magill) needs 100–300 measurements, and the additive gradient rule at η = 1 is slower
@@ -264,7 +264,7 @@ change only, because later segments are separated by 0.3–0.56 nat per measurem
 """
 
 
-SEED000_DISCUSSION = """\
+CHAER1998_DISCUSSION = """\
 **Differences.** The top-level finding — bank 2 over the first half, bank 3 after the σ_nga step, telling
 that σ_nga changed and not τ_nga — reproduces in every seed. The paper's cruise differs from navbank's in
 ways that matter for the in-bank selections: it processed two-way differenced-range Doppler with a 33-state
@@ -275,7 +275,7 @@ the statistics the same). Before the change the three τ values of bank 2 are ne
 one week between 4-hour passes, so "KF 2|2 selected" is a weak preference that a seed can flip (the τ = 7 d
 and 30 d filters differ by a few percent in weight). Bank 1 (σ_nga ten times too small) stays flat, as in the
 paper. The gate is trained only while its bank is favoured by the data it sees, so the in-bank weights of a
-bank the top gate has dropped keep moving slowly; that follows from seed 000 eqs. 15–16.
+bank the top gate has dropped keep moving slowly; that follows from Chaer et al. 1998 eqs. 15–16.
 """
 
 
@@ -307,7 +307,7 @@ their P_D columns compare sensitivity at the same nominal false-alarm target.
   and `insight-process-noise` (Table 4 campaign) are what characterizes them.
 * **Magill.** Its weights sit on the fused filter (≈ 1.0) from the first days and, never forgetting, stay there
   through every optical bias and the thruster-scale case, so its detector sees none of them; radiometric
-  faults move it at once (latency < 1 h) but without a usable class. This is seed 001's criticism of Magill,
+  faults move it at once (latency < 1 h) but without a usable class. This is Lubey & Ely's (2022) criticism of Magill,
   measured.
 * **chi2-two-sided** detects everything chi2 detects with the same calibration procedure, and fixes the
   over-inflated-filter weakness (next section).
@@ -428,7 +428,7 @@ def overinflated_section(camp: Path, doc_dir: Path) -> Section:
     s = Section("Beyond the papers: the over-inflated filter and the two-sided network")
     rows = ok_rows(camp)
     s.lines += [
-        "Seed 001 §4.4 names a weakness of its chi-square network: a filter whose uncertainty is over-inflated "
+        "Lubey & Ely 2022 §4.4 names a weakness of its chi-square network: a filter whose uncertainty is over-inflated "
         "produces small chi-square residuals and is rewarded. Scenario `insight-overinflated` adds to the "
         "nominal radio / optical / fused bank a copy of the fused filter whose measurement sigmas are three "
         "times the reported ones (`sigma_scale: 3` on every kind); no fault, 5 seeds. navbank's `chi2-two-sided` network replaces the statistic G by ν + max(G − ν, d), "
@@ -460,7 +460,7 @@ def overinflated_section(camp: Path, doc_dir: Path) -> Section:
         top_c2 = max(c2[case].mean, key=c2[case].mean.__getitem__)
         low_ts = min(ts[case].mean, key=ts[case].mean.__getitem__)
         s.claims = [
-            Claim("inflated-chi2", "seed 001's weakness: chi2 rewards the over-inflated filter", top_c2 == f,
+            Claim("inflated-chi2", "Lubey & Ely's (2022) weakness: chi2 rewards the over-inflated filter", top_c2 == f,
                   f"chi2 highest weight: {top_c2} ({c2[case].mean[top_c2]:.3f})"),
             Claim("inflated-two-sided", "chi2-two-sided gives the over-inflated filter the lowest weight",
                   low_ts == f, f"chi2-two-sided lowest weight: {low_ts} ({ts[case].mean[low_ts]:.3f})"),
@@ -502,10 +502,10 @@ def render(sections: list[Section], *, generated: str, commands: list[str]) -> s
 
 
 def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
-          seed003: Callable[[], Any] | None = None) -> Path:
+          chaer1997: Callable[[], Any] | None = None) -> Path:
     """Write ``out_dir/validation.md`` and ``out_dir/figures/``."""
     from ground.report.build import report_campaign
-    from tools.validation.seed003 import plot_experiment_3, run_seed003
+    from tools.validation.chaer1997 import plot_experiment_3, run_chaer1997
 
     fig_dir = out_dir / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
@@ -518,9 +518,9 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
             report_campaign(camp, rep)
             reports[name] = rep
     campaign_sections = (  # campaign, figures to copy, section builder, discussion
-        ("seed001-table3", ("mean_weights_chi2.png", "mean_weights_magill.png", "weights_vs_time_*.png"),
+        ("lubey-ely-table3", ("mean_weights_chi2.png", "mean_weights_magill.png", "weights_vs_time_*.png"),
          table3_section, TABLE3_DISCUSSION),
-        ("seed001-table4", ("mean_weights_chi2.png", "weights_vs_time_chi2_*.png"), table4_section,
+        ("lubey-ely-table4", ("mean_weights_chi2.png", "weights_vs_time_chi2_*.png"), table4_section,
          TABLE4_DISCUSSION),
         ("detection-matrix", ("networks_compared.png", "detection_latency.png", "weights_vs_time_*.png"),
          detection_section, DETECTION_DISCUSSION),
@@ -529,14 +529,14 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
         if name in reports:
             sections.append(make(campaigns_dir / name, copy_figures(reports[name], patterns, fig_dir, name), out_dir))
             sections[-1].discussion = discussion
-    results = (seed003 or run_seed003)()
-    sections.append(seed003_section(results, plot_experiment_3(results, fig_dir / "seed003-experiment3.png"), out_dir))
-    sections[-1].discussion = SEED003_DISCUSSION
+    results = (chaer1997 or run_chaer1997)()
+    sections.append(chaer1997_section(results, plot_experiment_3(results, fig_dir / "chaer1997-experiment3.png"), out_dir))
+    sections[-1].discussion = CHAER1997_DISCUSSION
     if cruise:
-        from tools.validation.seed000 import seed000_section
+        from tools.validation.chaer1998 import chaer1998_section
 
-        sections.append(seed000_section(fig_dir, out_dir))
-        sections[-1].discussion = SEED000_DISCUSSION
+        sections.append(chaer1998_section(fig_dir, out_dir))
+        sections[-1].discussion = CHAER1998_DISCUSSION
     for name, patterns, make, discussion in campaign_sections[2:]:
         if name in reports:
             sections.append(make(campaigns_dir / name, copy_figures(reports[name], patterns, fig_dir, name), out_dir))

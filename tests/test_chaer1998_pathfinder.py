@@ -1,4 +1,4 @@
-"""Seed 000 §V end to end: the pathfinder-cruise scenario flown in process, the hierarchical gates'
+"""Chaer et al. 1998 §V end to end: the pathfinder-cruise scenario flown in process, the hierarchical gates'
 selections before and after the mid-cruise change of the non-gravitational acceleration level."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 from fsw.astro.constants import SECONDS_PER_DAY
 from tools.scenario import load_scenario
 
-# seed 000 Table I: (bank, filter) -> (tau [days], sigma_nga [1e-12 km/s^2], sigma_n [mm/s])
+# Chaer et al. 1998 Table I: (bank, filter) -> (tau [days], sigma_nga [1e-12 km/s^2], sigma_n [mm/s])
 TABLE_I = {
     (1, 1): (1.0, 0.07, 0.01), (1, 2): (7.0, 0.07, 0.01), (1, 3): (30.0, 0.07, 0.01),
     (2, 1): (1.0, 0.7, 0.01), (2, 2): (7.0, 0.7, 0.01), (2, 3): (30.0, 0.7, 0.01),
@@ -46,12 +46,12 @@ def test_scenario_is_table_i():
 @pytest.mark.slow
 def test_top_level_gate_moves_from_bank_2_to_bank_3():
     from tools.inprocess import run_in_process
-    from tools.validation.seed000 import analyse
+    from tools.validation.chaer1998 import analyse
 
     cfg = load_scenario("pathfinder-cruise")
     res = run_in_process(cfg, keep_sim=True)
     n = len(res.sim.measurements)
-    assert 1100 <= n <= 1350  # seed 000: 1,230 observations
+    assert 1100 <= n <= 1350  # Chaer et al. 1998: 1,230 observations
     r = analyse(res)
     assert r.t_day.size == n
     np.testing.assert_allclose(r.top.sum(axis=1), 1.0, rtol=1e-9)

@@ -1,6 +1,6 @@
-"""Seed 003 §V (Chaer, Bishop & Ghosh 1997) on navbank's ``chaer-tracking`` scenario: the 2-state
+"""Chaer et al. 1997 §V (Chaer, Bishop & Ghosh 1997) on navbank's ``chaer-tracking`` scenario: the 2-state
 tracking experiments run through navbank's own linear filter bank (``fsw.filters.linear``) and
-gating networks (``magill``: seed 003 eqs. 7-8; ``moe``: eqs. 11-20), on measurements from
+gating networks (``magill``: Chaer et al. 1997 eqs. 7-8; ``moe``: eqs. 11-20), on measurements from
 ``sim.scenarios.chaer_tracking`` (Tables I-III, the five-segment Experiment 3).
 
 Numbers computed (all medians over independent seeds):
@@ -9,8 +9,8 @@ Numbers computed (all medians over independent seeds):
   and 1000 measurements, for Magill and for the gate at eta = 0.1, 1 and 7;
 * Experiment 3: the delay, in measurements after each change, until the matching filter has the
   largest weight ("top") and until the previous filter has lost 10 % of its weight ("onset"), for
-  Magill and the gate (eta 1 and 7); Magill with a 1e-3 lower bound (seed 002 §II.A.2);
-* the measurement after which the literal product form of eqs. 7-8 underflows (seed 003: ~168).
+  Magill and the gate (eta 1 and 7); Magill with a 1e-3 lower bound (Hanlon & Maybeck 2000 §II.A.2);
+* the measurement after which the literal product form of eqs. 7-8 underflows (Chaer et al. 1997: ~168).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 from fsw.filters.linear import LinearFilterBank
 from fsw.filters.record import BankRecord
 from fsw.gating import make_network
-from fsw.gating.magill import direct_product_weights, seed003_log_density
+from fsw.gating.magill import direct_product_weights, chaer1997_log_density
 from sim.scenarios import chaer_tracking as ct
 
 NAMES = tuple(f"KF{i}" for i in range(1, 6))
@@ -32,7 +32,7 @@ ETAS = (0.1, 1.0, 7.0)
 
 
 def bank_records(z: np.ndarray, alpha: np.ndarray) -> list[BankRecord]:
-    """Seed 003 eqs. 2-6 for every row alpha = [q1 q2 r1 r2]; measurement 1 updates the a-priori
+    """Chaer et al. 1997 eqs. 2-6 for every row alpha = [q1 q2 r1 r2]; measurement 1 updates the a-priori
     state (no prediction before it), every later one follows one transition step."""
     alpha = np.asarray(alpha, dtype=float)
     n_f = len(alpha)
@@ -62,7 +62,7 @@ def weight_history(records: list[BankRecord], network: str, params: dict | None 
 
 
 @dataclass
-class Seed003Results:
+class Chaer1997Results:
     selection: dict[int, dict[str, list[float]]] = field(default_factory=dict)  # experiment -> network -> KF3 weights
     delays_top: dict[str, list[float]] = field(default_factory=dict)  # network -> median delay per change
     delays_onset: dict[str, list[float]] = field(default_factory=dict)
@@ -82,10 +82,10 @@ def _label(network: str, eta: float | None = None) -> str:
     return network if eta is None else f"gate eta={eta:g}"
 
 
-def run_seed003(selection_runs: int = 5, switching_runs: int = 60, underflow_runs: int = 10,
-                example_seed: int = 0) -> Seed003Results:
-    """All seed 003 numbers of the validation report (a few seconds per 10 runs)."""
-    out = Seed003Results(runs={"selection": selection_runs, "switching": switching_runs, "underflow": underflow_runs})
+def run_chaer1997(selection_runs: int = 5, switching_runs: int = 60, underflow_runs: int = 10,
+                example_seed: int = 0) -> Chaer1997Results:
+    """All Chaer et al. 1997 numbers of the validation report (a few seconds per 10 runs)."""
+    out = Chaer1997Results(runs={"selection": selection_runs, "switching": switching_runs, "underflow": underflow_runs})
     for experiment in (1, 2):
         acc: dict[str, list[np.ndarray]] = {}
         for seed in range(selection_runs):
@@ -112,8 +112,8 @@ def run_seed003(selection_runs: int = 5, switching_runs: int = 60, underflow_run
             onset.setdefault(k, []).append(ct.switch_delays(W, rule="onset"))
         bound.append(ct.switch_delays(weight_history(recs, "magill", {"lower_bound": 1e-3})))
         if seed < underflow_runs:
-            dead = direct_product_weights(np.array([seed003_log_density(r) for r in recs]))[1]
-            out.underflow.append(-1 if dead is None else dead + 1)  # 1-based, as seed 003 counts
+            dead = direct_product_weights(np.array([chaer1997_log_density(r) for r in recs]))[1]
+            out.underflow.append(-1 if dead is None else dead + 1)  # 1-based, as Chaer et al. 1997 counts
         if seed == example_seed:
             out.example = {**hist, "magill lower bound 1e-3": weight_history(recs, "magill", {"lower_bound": 1e-3})}
     for k in top:
@@ -125,9 +125,9 @@ def run_seed003(selection_runs: int = 5, switching_runs: int = 60, underflow_run
     return out
 
 
-def plot_experiment_3(results: Seed003Results, path: str | Path) -> Path:
+def plot_experiment_3(results: Chaer1997Results, path: str | Path) -> Path:
     """Weights of the five filters through the five Experiment 3 segments (one seed), one panel per
-    network: the analogue of seed 003's Experiment 3 figures."""
+    network: the analogue of Chaer et al.'s (1997) Experiment 3 figures."""
     from ground.report.figure import new_figure, save
 
     hist = results.example

@@ -1,4 +1,4 @@
-"""Seed 000 §V (Chaer, Bishop & Ghosh 1998) on navbank's ``pathfinder-cruise`` scenario: the Table I
+"""Chaer et al. 1998 §V (Chaer, Bishop & Ghosh 1998) on navbank's ``pathfinder-cruise`` scenario: the Table I
 hierarchy of 4 x 3 Doppler-only filters under the two-level gating network (eqs. 2-16, eta = 1),
 with the NGA level stepping from 0.7e-12 to 7.0e-12 km/s^2 half-way through the cruise.
 
@@ -96,7 +96,7 @@ def run_cruise(seed: int | None = None, scenario: str = "pathfinder-cruise") -> 
 
 
 def plot_cruise(res: CruiseResults, path: str | Path) -> Path:
-    """Top-level and in-bank weight histories against days since the cruise start (seed 000 Figs.
+    """Top-level and in-bank weight histories against days since the cruise start (Chaer et al. 1998 Figs.
     5-9), the NGA change marked."""
     from ground.report.figure import new_figure, save
 
@@ -123,7 +123,7 @@ def _pick(d: dict[str, float]) -> str:
     return max(d, key=lambda k: d[k])
 
 
-def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] | None = None,
+def chaer1998_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] | None = None,
                     seeds: tuple[int, ...] = (1, 2, 3, 4, 5)) -> Any:
     """The report section: seed ``seeds[0]`` in the table and figure, every finding counted over all
     seeds (one in-process cruise each, ~20 s)."""
@@ -133,8 +133,8 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
 
     runs = results or [run_cruise(seed) for seed in seeds]
     r = runs[0]
-    fig = plot_cruise(r, fig_dir / "seed000-pathfinder-cruise.png")
-    s = Section("Seed 000 §V: hierarchical gating on the `pathfinder-cruise` scenario")
+    fig = plot_cruise(r, fig_dir / "chaer1998-pathfinder-cruise.png")
+    s = Section("Chaer et al. 1998 §V: hierarchical gating on the `pathfinder-cruise` scenario")
     s.lines += [
         "Scenario `pathfinder-cruise` (its YAML header lists every number, source and difference from the "
         "paper): a Mars Pathfinder-like Earth–Mars cruise (launch 1996-12-04, Type-I transfer), "
@@ -144,7 +144,7 @@ def seed000_section(fig_dir: Path, doc_dir: Path, results: list[CruiseResults] |
         "The FSW flies the Table I hierarchy (4 banks × 3 filters, NGA as a 1-hour batched ECRV with each "
         "filter's τ and σ, bank 4 with σ_n 0.001 / 0.05 / 0.10 mm/s) under the `hierarchical` network with "
         f"η = 1 at both levels. {r.measurements} Doppler points per run (the paper: "
-        f"{paper.SEED000_OBSERVATIONS}); {len(runs)} runs (seeds {', '.join(str(x.seed) for x in runs)}), "
+        f"{paper.CHAER1998_OBSERVATIONS}); {len(runs)} runs (seeds {', '.join(str(x.seed) for x in runs)}), "
         "computed by `navbank validation-report` in process — the same FSW code `navbank run` flies:",
         "",
         "```bash",
