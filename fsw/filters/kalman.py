@@ -93,6 +93,22 @@ def _joseph(Mt: np.ndarray, G: np.ndarray, n: int) -> np.ndarray:
     return PX[:, :n, :]
 
 
+def _gated_gain(
+    Mt: np.ndarray, n: int, processes: np.ndarray | None, gate: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """G = S⁻¹ M̃_bottom, z̄, the chi-square z̄ᵀS⁻¹z̄ and which filters update (``processes``
+    and, with ``gate``, chi-square editing); G is zeroed for the filters that do not."""
+    G = _gain_rows(Mt, n)
+    residual = Mt[:, n:, n]
+    chi2 = np.vecdot(residual, G[:, :, n])
+    does = processes
+    if gate is not None:
+        does = chi2 <= gate if processes is None else processes & (chi2 <= gate)
+    if does is not None:
+        G *= does[:, None, None]
+    return G, residual, chi2, does
+
+
 def update(
     Mt: np.ndarray, n: int, processes: np.ndarray | None = None, gate: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
@@ -114,14 +130,7 @@ def update(
     when every filter processed. Filters that do not process keep x̄ and P̄ (zero gain) but
     still get their z̄, S and chi-square, which the gating networks need.
     """
-    G = _gain_rows(Mt, n)
-    residual = Mt[:, n:, n]
-    chi2 = np.vecdot(residual, G[:, :, n])
-    does = processes
-    if gate is not None:
-        does = chi2 <= gate if processes is None else processes & (chi2 <= gate)
-    if does is not None:
-        G *= does[:, None, None]
+    G, residual, chi2, does = _gated_gain(Mt, n, processes, gate)
     return _joseph(Mt, G, n), residual, Mt[:, n:, n + 1 :], chi2, does
 
 
@@ -182,14 +191,8 @@ def update_explicit(
     15 states, 2 measurements) went from 20.6 to 29 µs.
     """
     HI, E, W = operands
-    G = _gain_rows(Mt, n)
-    residual = Mt[:, n:, n]
-    chi2 = np.vecdot(residual, G[:, :, n])
-    does = processes
-    if gate is not None:
-        does = chi2 <= gate if processes is None else processes & (chi2 <= gate)
-    if does is not None:
-        G *= does[:, None, None]  # zero gain: X = ½[I, 0, 0] gives back x̄ and P̄
+    # a zero gain makes X = ½[I, 0, 0] below, which gives back x̄ and P̄
+    G, residual, chi2, does = _gated_gain(Mt, n, processes, gate)
     X = np.matmul(G[:, :, :n].transpose(0, 2, 1), HI)  # K · ½[−H, 0, I]
     np.add(X, E, out=X)
     np.multiply(Mt[:, :n, : n + 1], 2.0, out=W[:, :n, : n + 1])

@@ -130,10 +130,7 @@ class CommandServer:
 
     def close(self) -> None:
         if self._queryable is not None:
-            try:
-                self._queryable.undeclare()
-            except zenoh.ZError:
-                pass
+            wire.undeclare_quietly(self._queryable)
             self._queryable = self._fifo = None
 
     def __enter__(self) -> "CommandServer":

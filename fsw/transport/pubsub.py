@@ -334,16 +334,10 @@ class Subscriber:
     def close(self) -> None:
         """Undeclare everything (idempotent)."""
         if self._queryable is not None:
-            try:
-                self._queryable.undeclare()
-            except zenoh.ZError:
-                pass
+            wire.undeclare_quietly(self._queryable)
             self._queryable = None
         for sub in self._subs:
-            try:
-                sub.undeclare()
-            except zenoh.ZError:
-                pass
+            wire.undeclare_quietly(sub)
         self._subs = []
 
     def __enter__(self) -> "Subscriber":

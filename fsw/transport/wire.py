@@ -50,3 +50,12 @@ def sequence_of(attachment: Any) -> int | None:
 
 def now_stamp() -> Stamp:
     return Stamp.from_unix(time.time())
+
+
+def undeclare_quietly(entity: Any) -> None:
+    """Undeclare a subscriber, queryable or publisher on a closing path: a link already gone
+    (``zenoh.ZError``) must not keep the remaining entities from being undeclared."""
+    try:
+        entity.undeclare()
+    except zenoh.ZError:
+        pass
