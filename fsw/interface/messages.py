@@ -16,7 +16,7 @@ generates their JSON Schemas from these declarations.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, get_args
 
 from fsw.interface import kinds
 from fsw.interface.typed import spec
@@ -35,12 +35,12 @@ MEASUREMENT_KINDS: tuple[str, ...] = kinds.NAMES
 MEASUREMENT_DIMENSION: dict[str, int | None] = {k.name: k.dimension for k in kinds.DECLARED}
 
 AnomalyClass = Literal["none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown"]
-ANOMALY_CLASSES: tuple[str, ...] = ("none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown")
+ANOMALY_CLASSES: tuple[str, ...] = get_args(AnomalyClass)
 
 RunState = Literal["start", "running", "end-of-run", "error"]
 
 TelecommandName = Literal["reset-gating", "enable-filter", "disable-filter", "set-param", "status"]
-TELECOMMANDS: tuple[str, ...] = ("reset-gating", "enable-filter", "disable-filter", "set-param", "status")
+TELECOMMANDS: tuple[str, ...] = get_args(TelecommandName)
 
 
 @dataclass(frozen=True, slots=True)
