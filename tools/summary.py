@@ -36,6 +36,7 @@ def describe(summary: RunSummary) -> str:
                          f"-- a FALSE ALARM (before any injected fault)")
         else:
             verdict = "correct" if a.correct_class else f"WRONG (injected {a.true_class})"
+            assert a.latency_s is not None  # a declaration at or after the true onset has its latency
             lines.append(f"ANOMALY declared on {when} by {a.network}: {a.anomaly_class} (confidence {a.confidence:.2f}), "
                          f"{a.latency_s / 3600:.1f} h after the true onset; diagnosis {verdict}")
     else:

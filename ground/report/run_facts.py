@@ -68,12 +68,13 @@ def anomaly_summary(reports: Sequence[m.AnomalyReport], *, onset_true: float | N
     t_decl = declared_epoch(first)
     last_flagged = [r for r in reports if r.flag][-1]
     false_alarm = onset_true is None or t_decl < onset_true
+    latency_s = None if onset_true is None or false_alarm else t_decl - onset_true
     return dataclasses.replace(
         block, time=t_decl, time_day=(t_decl - t0) / DAY_S, onset_estimate=first.onset_s,
         anomaly_class=last_flagged.anomaly_class, first_class=first.anomaly_class,
         confidence=float(last_flagged.confidence), network=first.network, false_alarm=false_alarm,
-        latency_s=None if false_alarm else t_decl - onset_true,
-        latency_day=None if false_alarm else (t_decl - onset_true) / DAY_S,
+        latency_s=latency_s,
+        latency_day=None if latency_s is None else latency_s / DAY_S,
         correct_class=last_flagged.anomaly_class == true_class)
 
 

@@ -39,7 +39,8 @@ def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, 
     fsw_status = by.get(topics.FSW_STATUS, [])
     fsw_end = next((s for s in reversed(fsw_status) if s.state == "end-of-run"), None)
     fsw_last = fsw_status[-1] if fsw_status else None
-    counts = (fsw_end or fsw_last).counts if (fsw_end or fsw_last) else {}
+    fsw_final = fsw_end or fsw_last
+    counts = fsw_final.counts if fsw_final else {}
     published = sim_status[-1].counts.get("measurements", len(meas)) if sim_status else len(meas)
 
     events = sorted(by.get(topics.SIM_FAULTS, []), key=lambda e: e.t_s)

@@ -133,6 +133,7 @@ class MonitorBlock:
     def _typed_encode(self, drop_defaults: bool) -> dict:
         if self.error is not None:
             return {"error": self.error._typed_encode(drop_defaults)}
+        assert self.anomaly is not None  # a monitor block holds its anomaly block or its error
         return self.anomaly._typed_encode(drop_defaults)
 
     @classmethod

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from tools.campaign.stats_records import Binomial, CampaignStats, CellStats
+from tools.campaign.stats_records import Binomial, CampaignStats, CellStats, FailedRun, Spread
 
 NOMINAL = "none"
 
@@ -25,6 +25,10 @@ def _table(header: list[str], rows: list[list[str]]) -> list[str]:
     out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     out += ["| " + " | ".join(r) + " |" for r in rows]
     return out + [""]
+
+
+def _spread(s: Spread | None) -> str:
+    return "n/a" if not s else f"{s.mean:.3g} / {s.median:.3g} / {s.max:.3g}"
 
 
 def _binom(b: Binomial | None) -> str:
@@ -118,9 +122,11 @@ def render(s: CampaignStats) -> str:
         fa = c.false_alarm
         per_day = fa.per_day if fa else None
         lat = c.latency
+        cell_runs = c.runs
+        assert cell_runs is not None  # compute gives every cell its run counts
         rows.append([
             c.scenario, c.fault, c.variant, dname,
-            f"{c.runs.ok}" + (f" (+{c.runs.failed} failed)" if c.runs.failed else ""),
+            f"{cell_runs.ok}" + (f" (+{cell_runs.failed} failed)" if cell_runs.failed else ""),
             "—" if c.nominal else _binom(c.detection),
             _binom(fa.per_run if fa else None),
             "—" if per_day is None or per_day.per_day is None else
@@ -149,11 +155,11 @@ def render(s: CampaignStats) -> str:
             body = [["Ideal", *[f"{1.0 / len(f):.4f}"] * len(f)]]
             body += [[r.case, *[_num((r.mean or {}).get(x), "{:.4f}") for x in f]] for r in t.rows]
             lines += _table(["case", *f], body)
-            after = [r for r in t.rows if r.after_onset]
+            after = [(r.case, r.after_onset) for r in t.rows if r.after_onset]
             if after:
                 lines += [f"after the fault onset ({t.network}):", ""]
-                lines += _table(["case", *f], [[r.case, *[_num(r.after_onset.get(x), "{:.4f}") for x in f]]
-                                               for r in after])
+                lines += _table(["case", *f], [[case, *[_num(weights.get(x), "{:.4f}") for x in f]]
+                                               for case, weights in after])
 
     lines += ["## Position error RMS [km] (mean / median / max over seeds)", ""]
     labels: list[str] = []
@@ -163,14 +169,14 @@ def render(s: CampaignStats) -> str:
     real_cells = [c for c in s.cells if not c.monitor]  # a monitor cell repeats its runs
     for c in real_cells:
         pe = c.position_error_rms_km
-        rows.append([c.key, *["n/a" if not pe.get(x) else
-                              f"{pe[x].mean:.3g} / {pe[x].median:.3g} / {pe[x].max:.3g}" for x in labels]])
+        rows.append([c.key, *[_spread(pe.get(x)) for x in labels]])
     lines += _table(["cell", *labels], rows)
 
     lines += ["## Budget and run time", ""]
     rows = []
     for c in real_cells:
         b = c.budget
+        assert b is not None  # compute gives every cell its budget
         w = c.wall_time_s
         rows.append([c.key, _num(b.max_utilisation, "{:.3f}"), str(b.overruns_total),
                      str(b.runs_with_overruns), _num(b.final_backlog_max, "{:.0f}"),
@@ -178,17 +184,18 @@ def render(s: CampaignStats) -> str:
     lines += _table(["cell", "max utilisation", "overruns", "runs with overruns", "max final backlog",
                      "wall time mean [s]", "wall time max [s]"], rows)
 
-    failures, seen_failed = [], set()
+    failures: list[tuple[str, FailedRun]] = []
+    seen_failed: set[str] = set()
     for c in s.cells:  # a failed run appears once, under its first detector
-        for f in c.failed:
-            if f.id not in seen_failed:
-                failures.append((c.key, f))
-            seen_failed.add(f.id)
+        for run in c.failed:
+            if run.id not in seen_failed:
+                failures.append((c.key, run))
+            seen_failed.add(run.id)
     if failures:
         lines += ["## Failed runs", ""]
         lines += _table(["cell", "seed", "id", "error"],
-                        [[k, str(f.seed), f.id, f"{f.type}: {f.message}".replace("|", "\\|")]
-                         for k, f in failures])
+                        [[k, str(run.seed), run.id, f"{run.type}: {run.message}".replace("|", "\\|")]
+                         for k, run in failures])
     uncal: dict[str, int] = {}
     for c in s.cells:
         if c.note:

@@ -21,7 +21,8 @@ from collections import deque
 from concurrent.futures import CancelledError
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, TextIO
+from types import FrameType
+from typing import TYPE_CHECKING, Any, Callable, TextIO
 
 from ground.report.row_types import ResultRow
 from tools.campaign.executors import Executor
@@ -30,6 +31,9 @@ from tools.campaign.progress import ProgressLine
 from tools.campaign.store import PLAN, RunStore, write_json_atomic
 from tools.campaign.task import RunTask
 from tools.campaign.worker import base_row, error_record
+
+if TYPE_CHECKING:
+    from typing_extensions import TypeIs
 
 POLL_S = 0.5
 
@@ -66,7 +70,7 @@ class _Interrupts:
 
     def __init__(self) -> None:
         self.count = 0
-        self._prev = None
+        self._prev: Callable[[int, FrameType | None], Any] | int | None = None
 
     def __enter__(self) -> "_Interrupts":
         if threading.current_thread() is threading.main_thread():
@@ -87,6 +91,11 @@ def _executor_failure_row(task: RunTask, exc: BaseException, campaign: str, exec
                                finished_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
 
 
+def _is_factory(executor: Executor | Callable[[], Executor]) -> TypeIs[Callable[[], Executor]]:
+    """A factory of an executor rather than an executor (which has ``submit``)."""
+    return callable(executor) and not hasattr(executor, "submit")
+
+
 def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | Callable[[], Executor], *,
                  rerun_failed: bool = False,
                  progress_stream: TextIO | None = None, on_row: Callable[[ResultRow], None] | None = None,
@@ -105,11 +114,12 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
         latest = store.read().latest()
         tasks = select_tasks(plan, latest, rerun_failed)
         out.skipped = len(plan.tasks) - len(tasks)
-        if tasks and callable(executor) and not hasattr(executor, "submit"):
+        if not tasks:
+            return out  # nothing to run: no executor is made
+        if _is_factory(executor):
             executor = owned = executor()
-        if tasks:
-            out.executor, out.workers = executor.name, executor.capacity
-        progress = None if quiet or not tasks else ProgressLine(len(tasks), label=plan.name, stream=progress_stream)
+        out.executor, out.workers = executor.name, executor.capacity
+        progress = None if quiet else ProgressLine(len(tasks), label=plan.name, stream=progress_stream)
         pending = deque(tasks)
         inflight: dict[object, RunTask] = {}
         announced = False
@@ -122,8 +132,8 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
                     break
                 if intr.count == 0:
                     while pending and len(inflight) < executor.capacity:
-                        task = pending.popleft()
-                        inflight[executor.submit(task)] = task
+                        queued = pending.popleft()
+                        inflight[executor.submit(queued)] = queued
                         out.submitted += 1
                 elif not announced:
                     announced = True
@@ -144,6 +154,7 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
                             continue  # not the run's fault: no row, a resumed campaign runs it again
                         row = _executor_failure_row(task, exc, plan.name, executor.name)
                     else:
+                        assert result is not None  # a completion has its result or its exception
                         row = dataclasses.replace(result.row, campaign=plan.name, executor=executor.name)
                         if result.weights is not None and row.status == "ok":
                             store.save_weights(task.id, result.weights)

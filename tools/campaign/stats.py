@@ -79,7 +79,7 @@ def poisson_rate(k: int, exposure: float, level: float = LEVEL) -> PoissonRate:
     return PoissonRate(k=int(k), exposure_days=float(exposure), per_day=k / exposure, ci=(lo, hi))
 
 
-def spread(values: Iterable[float], *, with_total: bool = False) -> Spread | None:
+def spread(values: Iterable[float | None], *, with_total: bool = False) -> Spread | None:
     v = np.array([x for x in values if x is not None and np.isfinite(x)], dtype=float)
     if v.size == 0:
         return None
@@ -129,6 +129,7 @@ def detector_rows(row: ResultRow) -> list[ResultRow]:
                                                                     message=f"no monitor result for {net}")
                 vrow = dataclasses.replace(vrow, status="failed", error=err, summary=None)
             else:
+                assert mon.anomaly is not None  # a monitor block without an error holds its anomaly block
                 vrow = dataclasses.replace(vrow, summary=dataclasses.replace(summary, anomaly=mon.anomaly))
         out.append(vrow)
     return out
@@ -154,6 +155,8 @@ def _expand_cells(cell_order: list[str], cell_info: dict[str, dict], rows_by_cel
             order.append(key)
             continue
         onboard = _cell_detector(info, rows).get("network")
+        # the plan's detector facts or the rows' name the network (a cell with monitors has one or the other)
+        assert isinstance(onboard, str)
         split: dict[str, list[ResultRow]] = defaultdict(list)
         for r in rows:
             for v in detector_rows(r):
@@ -177,6 +180,8 @@ def _expand_cells(cell_order: list[str], cell_info: dict[str, dict], rows_by_cel
 def _cell_stats(key: str, cell: dict, rows: list[ResultRow], planned: int | None, level: float) -> CellStats:
     ok = [r for r in rows if r.ok]
     failed = [r for r in rows if r.status != "ok"]
+    # an ok row has its summary (ResultRow.ok): one per ok row, in their order
+    summaries = [r.summary for r in ok if r.summary is not None]
     fault_class = rows[0].fault_class if rows else cell.get("fault_class", NOMINAL)
     if rows:
         detector = CellDetector(network=rows[0].detector.network, calibrated=rows[0].detector.calibrated)
@@ -184,7 +189,7 @@ def _cell_stats(key: str, cell: dict, rows: list[ResultRow], planned: int | None
         planned_det = cell.get("detector") or {}
         detector = CellDetector(network=planned_det.get("network"), calibrated=planned_det.get("calibrated"))
     base = CellStats(
-        key=key, scenario=cell.get("scenario"), fault=cell.get("fault"), variant=cell.get("variant"),
+        key=key, scenario=cell["scenario"], fault=cell["fault"], variant=cell["variant"],
         base_variant=cell.get("base_variant"), monitor=cell.get("monitor"), fault_class=fault_class,
         detector=detector,
         runs=CellRuns(planned=planned, ok=len(ok), failed=len(failed),
@@ -193,40 +198,43 @@ def _cell_stats(key: str, cell: dict, rows: list[ResultRow], planned: int | None
                                message=r.error.message if r.error else None) for r in failed),
         seeds=tuple(sorted(r.seed for r in ok)),
     )
-    anomalies = [r.summary.anomaly for r in ok]
+    anomalies = [s.anomaly for s in summaries]
+    note: str | None = None
+    detection: Binomial | None = None
+    false_alarm: FalseAlarms | None = None
+    latency: Latency | None = None
+    characterization: Binomial | None = None
     if not detector.can_declare:
-        verdicts = {"note": f"detector network {detector.network!r} not calibrated: no declarations possible"}
+        note = f"detector network {detector.network!r} not calibrated: no declarations possible"
     elif fault_class == NOMINAL:
         fa = [a for a in anomalies if a.declared and a.false_alarm]
         exposure = 0.0
         for r, a in zip(ok, anomalies):
             span = float(r.span_days or 0.0)
             exposure += min(float(a.time_day), span) if a.declared and a.time_day is not None else span
-        verdicts = {"false_alarm": FalseAlarms(per_run=binomial(len(fa), len(ok), level),
-                                               per_day=poisson_rate(len(fa), exposure, level))}
+        false_alarm = FalseAlarms(per_run=binomial(len(fa), len(ok), level),
+                                  per_day=poisson_rate(len(fa), exposure, level))
     else:
         fa = [a for a in anomalies if a.declared and a.false_alarm]
         det = [a for a in anomalies if a.detected]
-        verdicts = {
-            "detection": binomial(len(det), len(ok), level),
-            "false_alarm": FalseAlarms(per_run=binomial(len(fa), len(ok), level), per_day=None,
-                                       note="declarations before the injected onset"),
-            "latency": latency_stats(a.latency_s for a in det if a.latency_s is not None),
-            "characterization": binomial(sum(bool(a.correct_class) for a in det), len(det), level),
-        }
+        detection = binomial(len(det), len(ok), level)
+        false_alarm = FalseAlarms(per_run=binomial(len(fa), len(ok), level), per_day=None,
+                                  note="declarations before the injected onset")
+        latency = latency_stats(a.latency_s for a in det if a.latency_s is not None)
+        characterization = binomial(sum(bool(a.correct_class) for a in det), len(det), level)
 
     labels: set[str] = set()
-    for r in ok:
-        labels.update(r.summary.position_error_rms_km)
-    order = ok[0].summary.filters if ok else ()
+    for s in summaries:
+        labels.update(s.position_error_rms_km)
+    order = summaries[0].filters if summaries else ()
     ordered = [f for f in order if f in labels] + sorted(labels - set(order))
-    budgets = [r.summary.budget for r in ok]
+    budgets = [s.budget for s in summaries]
     weights: dict[str, NetworkWeights] = {}
     nets: list[str] = []
-    for r in ok if not base.monitor else ():  # the runs' weights belong to the real cell
-        nets += [n for n in r.summary.gating if n not in nets]
+    for s in summaries if not base.monitor else ():  # the runs' weights belong to the real cell
+        nets += [n for n in s.gating if n not in nets]
     for net in nets:
-        entries = [r.summary.gating[net] for r in ok if net in r.summary.gating]
+        entries = [s.gating[net] for s in summaries if net in s.gating]
         filters = list(entries[0].mean_weights)
         means = {}
         for src, dst in (("mean_weights", "mean"), ("mean_weights_after_onset", "after_onset"),
@@ -236,8 +244,9 @@ def _cell_stats(key: str, cell: dict, rows: list[ResultRow], planned: int | None
                 means[dst] = {f: float(np.mean([h[f] for h in have if f in h])) for f in filters}
         weights[net] = NetworkWeights(filters=tuple(filters), n=len(entries), **means)
     return dataclasses.replace(
-        base, **verdicts,
-        position_error_rms_km={lab: spread(r.summary.position_error_rms_km.get(lab) for r in ok) for lab in ordered},
+        base, note=note, detection=detection, false_alarm=false_alarm, latency=latency,
+        characterization=characterization,
+        position_error_rms_km={lab: spread(s.position_error_rms_km.get(lab) for s in summaries) for lab in ordered},
         budget=CellBudget(
             max_utilisation=max((b.max_utilisation for b in budgets), default=None),
             overruns_total=int(sum(b.overruns for b in budgets)),
@@ -258,7 +267,7 @@ def _confusion(cells: list[CellStats], rows_by_cell: dict[str, list[ResultRow]])
         _, counts = groups.setdefault((c.scenario, c.variant),
                                       (c.detector.network, defaultdict(lambda: defaultdict(int))))
         for r in rows_by_cell[c.key]:
-            if not r.ok:
+            if not r.ok or r.summary is None:  # (an ok row has its summary)
                 continue
             true = r.fault_class or r.summary.anomaly.true_class
             counts[true][r.summary.anomaly.diagnosed] += 1
@@ -308,8 +317,8 @@ def compute(rows: list[ResultRow], plan: PlanFile | None = None, *, level: float
             facts = c.to_json()
             cell_info[c.key] = {k: facts[k] for k in ("scenario", "fault", "variant", "fault_class") if k in facts}
             cell_info[c.key]["detector"] = c.detector.to_json() if c.detector is not None else {}
-        for r in plan.runs:
-            planned_by_cell[r.cell] += 1
+        for run in plan.runs:
+            planned_by_cell[run.cell] += 1
     rows_by_cell: dict[str, list[ResultRow]] = defaultdict(list)
     for r in latest.values():
         if plan_ids is not None and r.id not in plan_ids:

@@ -126,9 +126,9 @@ class CellStats(JsonRecord):
     """The statistics of one cell (or, with monitors, of one detector of a cell)."""
 
     key: str = spec(doc="'scenario / fault / variant'")
-    scenario: str | None = spec(None, doc="scenario name")
-    fault: str | None = spec(None, doc="fault case")
-    variant: str | None = spec(None, doc="variant (with monitors: '<variant> / <network>')")
+    scenario: str = spec(doc="scenario name")
+    fault: str = spec(doc="fault case")
+    variant: str = spec(doc="variant (with monitors: '<variant> / <network>')")
     base_variant: str | None = spec(None, doc="the campaign's variant of a detector cell")
     monitor: bool | None = spec(None, doc="the detector is a monitor replayed on the runs")
     fault_class: str = spec(NOMINAL, doc="injected class")
@@ -155,7 +155,7 @@ class CellStats(JsonRecord):
         # the detection block depends on the case: n/a without a calibration, false alarms first
         # for a nominal case, detection, false alarms, latency and class for a faulted one
         data = typed.encode(self, drop_defaults=drop_defaults)
-        out: dict[str, Any] = {k: data[k] for k in ("key", "scenario", "fault", "variant") if data[k] is not None}
+        out: dict[str, Any] = {k: data[k] for k in ("key", "scenario", "fault", "variant")}
         out.update({k: data[k] for k in ("base_variant", "monitor") if data[k] is not None})
         out.update({k: data[k] for k in ("fault_class", "detector", "runs", "failed", "seeds")})
         if not self.detector.can_declare:

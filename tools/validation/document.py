@@ -20,10 +20,11 @@ import numpy as np
 from ground.report.campaign_data import reading_order
 from ground.report.row_types import ResultRow
 from ground.report.summary_types import AnomalyBlock
+from tools.campaign.stats_records import Binomial
 from tools.validation import paper
 from tools.validation.claims import TABLE3_CASES, Claim, table3_claims, table4_claim
 from tools.validation.section import Section, claims_lines, figure_links, table
-from tools.validation.tables import WeightRow, means, ok_rows, weight_table
+from tools.validation.tables import WeightRow, means, ok_rows, summary_of, weight_table
 
 CAMPAIGNS = ("lubey-ely-table3", "lubey-ely-table4", "detection-matrix", "overinflated")
 
@@ -166,7 +167,7 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
             s.claims.append(Claim(f"table4-magill-{label}", f"{label}: Magill favours the high-uncertainty fused "
                                   "filter (fused-Q)", top == "fused-Q", f"highest: {top} ({mg.mean[top]:.3f})"))
         runs = [r for r in rows if r.cell.scenario == scen and r.cell.fault == case]
-        declared = [r.summary.anomaly for r in runs if r.summary.anomaly.declared]
+        declared = [a for a in (summary_of(r).anomaly for r in runs) if a.declared]
         classes = sorted({a.first_diagnosis for a in declared})
         detector_lines.append(f"* detector (chi2, calibrated for this bank), {label}: declared in "
                               f"{len(declared)}/{len(runs)} runs, diagnosed {', '.join(classes) or 'nothing'}")
@@ -322,7 +323,7 @@ CLASS_ORDER = ("none", "optical-measurement", "radiometric-measurement", "dynami
 
 def detector_results(row: ResultRow) -> dict[str, AnomalyBlock]:
     """network -> anomaly block of one run: the onboard detector's and every monitor's."""
-    summ = row.summary
+    summ = summary_of(row)
     out = {}
     if summ.anomaly.detector:
         out[summ.anomaly.network or row.detector.network] = summ.anomaly
@@ -332,6 +333,12 @@ def detector_results(row: ResultRow) -> dict[str, AnomalyBlock]:
     return out
 
 
+def _k_of_n(b: Binomial) -> str:
+    """'k/n [low–high %]' of a proportion over at least one run (it then has its interval)."""
+    assert b.ci is not None
+    return f"{b.k}/{b.n} [{100 * b.ci[0]:.0f}–{100 * b.ci[1]:.0f} %]"
+
+
 def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
     from tools.campaign.stats import binomial, latency_stats
 
@@ -339,8 +346,8 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
     rows = sorted(ok_rows(camp), key=lambda r: (r.cell.fault, r.seed))
     cases = reading_order(r.cell.fault for r in rows)
     n_seeds = max((sum(1 for r in rows if r.cell.fault == c) for c in cases), default=0)
-    onsets = sorted({round(r.summary.anomaly.onset_true_day, 2) for r in rows
-                     if r.summary.anomaly.onset_true_day is not None})
+    onsets = sorted({round(a.onset_true_day, 2) for a in (summary_of(r).anomaly for r in rows)
+                     if a.onset_true_day is not None})
     s.lines += [
         "Every fault preset on `insight-approach` (presets start on day "
         + ", ".join(f"{d:g}" for d in onsets) + f"), {n_seeds} seeds per case (seeds 1–{n_seeds}), one run per "
@@ -375,13 +382,13 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
                 continue
             if res[0].true_class == "none":
                 b = binomial(sum(a.declared for a in res), len(res))
-                cells.append(f"FA {b.k}/{b.n} [{100 * b.ci[0]:.0f}–{100 * b.ci[1]:.0f} %]")
+                cells.append(f"FA {_k_of_n(b)}")
                 continue
             det = [a for a in res if a.detected]
             b = binomial(len(det), len(res))
             lat = latency_stats([a.latency_s for a in det if a.latency_s is not None])
             correct = sum(1 for a in det if a.first_diagnosis == a.true_class)
-            txt = f"{b.k}/{b.n} [{100 * b.ci[0]:.0f}–{100 * b.ci[1]:.0f} %]"
+            txt = _k_of_n(b)
             if lat:
                 txt += f", {lat.median_h:.0f} h (p90 {lat.p90_h:.0f} h)"
             if det:

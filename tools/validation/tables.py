@@ -10,6 +10,7 @@ from typing import Literal
 import numpy as np
 
 from ground.report.row_types import ResultRow
+from ground.report.summary_types import RunSummary
 from tools.campaign.store import read_rows
 
 
@@ -27,6 +28,12 @@ def ok_rows(campaign_dir: str | Path) -> list[ResultRow]:
     return [r for r in latest.values() if r.ok]
 
 
+def summary_of(row: ResultRow) -> RunSummary:
+    """The summary of a row of :func:`ok_rows` (an ok row always has one)."""
+    assert row.summary is not None, f"run {row.id} has no summary: not an ok row"
+    return row.summary
+
+
 def weight_table(rows: list[ResultRow], network: str, *, scenario: str | None = None,
                  which: Literal["mean_weights", "mean_weights_after_onset"] = "mean_weights") -> dict[str, WeightRow]:
     """case -> WeightRow for ``network`` (``which``: mean_weights or mean_weights_after_onset)."""
@@ -34,7 +41,7 @@ def weight_table(rows: list[ResultRow], network: str, *, scenario: str | None = 
     for r in rows:
         if scenario is not None and r.cell.scenario != scenario:
             continue
-        g = r.summary.gating.get(network)
+        g = summary_of(r).gating.get(network)
         weights = getattr(g, which) if g is not None else None
         if not weights:
             continue
