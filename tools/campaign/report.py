@@ -148,7 +148,7 @@ def render(s: CampaignStats) -> str:
                             [[t, *[str(g.matrix[t][d]) for d in g.diagnosed_classes]] for t in g.true_classes])
 
     if s.weight_tables:
-        lines += ["## Mean gating weights (full arc; seed 001 Tables 3 and 4 layout)", ""]
+        lines += ["## Mean gating weights (full arc; Lubey & Ely 2022 Tables 3 and 4 layout)", ""]
         for t in s.weight_tables:
             f = t.filters
             lines += [f"**{t.network}** — {t.scenario} / {t.variant}", ""]

@@ -16,7 +16,7 @@ Per cell (scenario x fault case x network variant):
   (linear interpolation between order statistics, numpy's default);
 * characterization: a confusion matrix of injected class vs diagnosed class (``none`` when
   nothing was declared) per scenario and variant, and the rate of correct classes among detections;
-* mean weight of each filter per fault case for every gating network (seed 001 Tables 3 and 4:
+* mean weight of each filter per fault case for every gating network (Lubey & Ely 2022 Tables 3 and 4:
   rows = fault cases, columns = filters; the mean over seeds of each run's full-arc mean, and of
   its after-onset mean);
 * position error: each filter's RMS error per run, summarised as mean / median / max over seeds;
