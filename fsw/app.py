@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Any, Callable, Sequence
+from typing import Callable, Sequence
 
 import fsw.transport as tp
 from fsw.config import FswConfig
@@ -33,7 +33,7 @@ def run_fsw(
     *,
     consumers: Sequence[str] = ("ground",),
     producer: str = "sim",
-    stop_event: Any = None,
+    stop_event: tp.StopFlag | None = None,
     progress: Callable[[str], None] | None = None,
     idle_timeout_s: float | None = None,
     handle_signals: bool = True,

@@ -121,7 +121,7 @@ def run_logger(
     out_path: str | os.PathLike,
     transport_cfg: tp.TransportConfig | None = None,
     *,
-    stop_event: Any = None,
+    stop_event: tp.StopFlag | None = None,
     producers: Sequence[str] = ("sim", "fsw"),
     until_end_of_run: bool = True,
     max_duration_s: float | None = None,

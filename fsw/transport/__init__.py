@@ -16,8 +16,8 @@ The measured Zenoh pitfalls (NOTES-zenoh-mcap.md) are handled once, each in the 
 
 from fsw.transport.commands import CommandServer, declare_command_server, send_command, send_command_payload
 from fsw.transport.flow import COMPLETE, PROGRESS, ROLES, CreditWindow, drain, query_progress, wait_for_consumers
-from fsw.transport.lifecycle import REPLY_LINGER_S, ProcessLifecycle
-from fsw.transport.pubsub import Publisher, Received, Subscriber, end_of_run_counts
+from fsw.transport.lifecycle import REPLY_LINGER_S, ProcessLifecycle, StopFlag
+from fsw.transport.pubsub import Publisher, Received, Subscriber, TopicPublisher, end_of_run_counts
 from fsw.transport.session import TransportConfig, TransportError, free_tcp_ports, mesh_configs, open_session, zenoh_config
 from fsw.transport.wire import sequence_attachment
 
@@ -29,6 +29,8 @@ __all__ = [
     "CommandServer",
     "CreditWindow",
     "ProcessLifecycle",
+    "StopFlag",
+    "TopicPublisher",
     "Publisher",
     "Received",
     "Subscriber",

@@ -22,18 +22,24 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import ExitStack
-from typing import Any
+from typing import Any, Protocol
 
 import zenoh
 
 from fsw.interface.messages import RunStatus, Telecommand, TelecommandReply
 from fsw.transport import flow
 from fsw.transport.commands import CommandServer
-from fsw.transport.pubsub import Publisher, Subscriber
+from fsw.transport.pubsub import Publisher, Subscriber, TopicPublisher
 from fsw.transport.session import TransportConfig, TransportError, open_session
 
 #: Time for a last query reply to leave before the session closes.
 REPLY_LINGER_S = 0.2
+
+
+class StopFlag(Protocol):
+    """What asks a process to stop from outside: a threading or multiprocessing event."""
+
+    def is_set(self) -> bool: ...
 
 
 class ProcessLifecycle:
@@ -49,7 +55,7 @@ class ProcessLifecycle:
         run_id: str,
         transport_cfg: TransportConfig | None = None,
         *,
-        stop_event: Any = None,
+        stop_event: StopFlag | None = None,
         handle_signals: bool = True,
     ):
         self.run_id = run_id
@@ -58,7 +64,7 @@ class ProcessLifecycle:
         self.handle_signals = handle_signals
         self._session: zenoh.Session | None = None
         self._signalled = threading.Event()
-        self._pubs: dict[str, Any] = {}
+        self._pubs: dict[str, TopicPublisher] = {}
         self._subs: list[Subscriber] = []
         self._servers: list[CommandServer] = []
         self._stack = ExitStack()
@@ -83,7 +89,8 @@ class ProcessLifecycle:
 
     def _close_endpoints(self) -> None:
         # Servers first: a threaded command handler may still publish through the publishers.
-        for endpoint in (*self._servers, *self._subs, *self._pubs.values()):
+        endpoints: list[CommandServer | Subscriber | TopicPublisher] = [*self._servers, *self._subs, *self._pubs.values()]
+        for endpoint in endpoints:
             try:
                 endpoint.close()
             except zenoh.ZError:
@@ -108,27 +115,30 @@ class ProcessLifecycle:
         return self.stop_reason() is not None
 
     # -- endpoints ---------------------------------------------------------------------------
-    def publisher(
-        self, topic: str, *, credit: Sequence[flow.CreditWindow] = (), make: Callable[[str], Any] | None = None
-    ) -> Any:
-        """The publisher of ``topic``, declared on first use and closed with the lifecycle.
-
-        ``make(topic)`` builds it instead of a :class:`Publisher` (e.g. one for a topic outside
-        the ICD); it needs ``topic``, ``count``, ``put_payload`` and ``close``. Later calls
-        return the first one whatever their arguments.
-        """
+    def publisher(self, topic: str, *, credit: Sequence[flow.CreditWindow] = ()) -> Publisher:
+        """The ICD publisher of ``topic``, declared on first use and closed with the lifecycle
+        (later calls return the first one whatever their ``credit``)."""
         pub = self._pubs.get(topic)
         if pub is None:
-            pub = make(topic) if make is not None else Publisher(self.session, self.run_id, topic, credit=credit)
-            self._pubs[topic] = pub
+            pub = self._pubs[topic] = Publisher(self.session, self.run_id, topic, credit=credit)
+        if not isinstance(pub, Publisher):
+            raise TypeError(f"{topic} was declared with a publisher of raw payloads, not ICD messages")
         return pub
 
-    def put(self, topic: str, msg: Any) -> None:
+    def raw_publisher(self, topic: str, make: Callable[[str], TopicPublisher]) -> TopicPublisher:
+        """The publisher ``make(topic)`` builds (e.g. of recorded payloads on a topic outside the
+        ICD), declared on first use and closed with the lifecycle."""
+        pub = self._pubs.get(topic)
+        if pub is None:
+            pub = self._pubs[topic] = make(topic)
+        return pub
+
+    def put(self, topic: str, msg: object) -> None:
         """Publish ``msg`` on ``topic`` (an ICD topic), declaring its publisher on first use."""
         self.publisher(topic).put(msg)
 
     @property
-    def publishers(self) -> dict[str, Any]:
+    def publishers(self) -> dict[str, TopicPublisher]:
         """Publishers by topic, in the order they were declared."""
         return dict(self._pubs)
 

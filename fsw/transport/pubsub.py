@@ -18,7 +18,7 @@ import threading
 import time
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import zenoh
 
@@ -26,6 +26,18 @@ from fsw.interface import codec, topics
 from fsw.interface.messages import RunStatus
 from fsw.transport import wire
 from fsw.transport.flow import COMPLETE, PROGRESS, ROLES, CreditWindow
+
+
+class TopicPublisher(Protocol):
+    """What the lifecycle needs of a publisher: a :class:`Publisher`, or one a process makes
+    itself for a topic outside the ICD."""
+
+    topic: str
+    count: int
+
+    def put_payload(self, payload: bytes) -> None: ...
+
+    def close(self) -> None: ...
 
 
 class Publisher:
@@ -96,7 +108,7 @@ class Publisher:
         self.close()
 
 
-def end_of_run_counts(publishers: Iterable[Publisher], **extra: int) -> dict[str, int]:
+def end_of_run_counts(publishers: Iterable[TopicPublisher], **extra: int) -> dict[str, int]:
     """``counts`` for an end-of-run RunStatus: messages per topic (keys with '/') plus ``extra``."""
     out = {p.topic: p.count for p in publishers}
     for k, v in extra.items():

@@ -40,7 +40,6 @@ import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import zenoh
 
@@ -106,7 +105,7 @@ class ReplayResult:
         return "\n".join(lines)
 
 
-def _publisher_for(session: zenoh.Session, run_id: str, topic: str, credit: list[tp.CreditWindow]) -> Any:
+def _publisher_for(session: zenoh.Session, run_id: str, topic: str, credit: list[tp.CreditWindow]) -> tp.TopicPublisher:
     try:
         topics.type_of_topic(topic)
     except KeyError:
@@ -131,7 +130,7 @@ def republish(
     consumer_timeout_s: float = 30.0,
     drain_timeout_s: float = 60.0,
     credit_window: int | None = None,
-    stop_event: Any = None,
+    stop_event: tp.StopFlag | None = None,
     progress: Callable[[str], None] | None = None,
     progress_every_s: float = 2.0,
     linger_s: float = 1.0,
@@ -164,12 +163,12 @@ def republish(
     with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=False) as life:
         life.wait_for_consumers(consumers, timeout_s=consumer_timeout_s)
 
-        def make_publisher(topic: str) -> Any:
+        def make_publisher(topic: str) -> tp.TopicPublisher:
             credit = [tp.CreditWindow(life.session, run_id, c, topic, window=window) for c in consumers]
             return _publisher_for(life.session, run_id, topic, credit)
 
-        def publisher(topic: str) -> Any:
-            return life.publisher(topic, make=make_publisher)
+        def publisher(topic: str) -> tp.TopicPublisher:
+            return life.raw_publisher(topic, make_publisher)
 
         log0: int | None = None
         last_log = 0
