@@ -84,6 +84,19 @@ class TelemetryConfig:
 
 
 @dataclass(frozen=True)
+class IntakeConfig:
+    """Plausibility limits of the measurement intake (:mod:`fsw.ingest`): what no valid
+    measurement can look like, so that one forged or corrupted message cannot change state."""
+
+    max_ahead_s: float = spec(
+        10 * 86400.0, doc="a time tag more than this ahead of the FSW clock (newest processed tag) is rejected; "
+        "longer than the longest tracking gap", unit="s", gt=0)
+    max_sequence_jump: int = spec(
+        100_000, doc="a sequence number more than this beyond the next expected one is rejected; "
+        "far more than the simulator's credit window", ge=1)
+
+
+@dataclass(frozen=True)
 class InitialState:
     """A-priori spacecraft state uplinked to the FSW before the run (never the truth)."""
 
@@ -105,6 +118,7 @@ class FswConfig:
     budget: BudgetConfig = spec(default_factory=BudgetConfig, doc="frame executive budget")
     telemetry: TelemetryConfig = spec(default_factory=TelemetryConfig, doc="telemetry cadences")
     reorder_window: int = spec(32, doc="out-of-order measurements within this many sequence numbers are re-ordered", ge=0)
+    intake: IntakeConfig = spec(default_factory=IntakeConfig, doc="measurement plausibility limits")
     initial_state: InitialState | None = spec(
         None, doc="a-priori state; none: the launcher derives it from the scenario (design trajectory + a-priori error draw)"
     )

@@ -119,3 +119,63 @@ def test_malformed_measurements_and_commands_are_counted_not_fatal(fsw_process):
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     assert "Traceback" not in err
+
+
+def test_poison_measurements_are_rejected_and_commands_answered_during_a_flood(fsw_process):
+    """The measurements that used to blind (60 days ahead), hang (t = 1e300) or kill (seq ≈ 2^62)
+    the FSW, and a flood of oversized payloads: all refused and counted, the valid stream
+    processed in full, and a status telecommand answered while the flood is still arriving."""
+    import dataclasses
+    import threading
+
+    proc, path, me = fsw_process
+    cfg, seed = resolve(load_scenario(str(path)))
+    good = generate(cfg.sim, seed=seed).measurements[:300]
+    nxt = good[101]
+    poison = [dataclasses.replace(nxt, t_s=nxt.t_s + 60 * 86400.0), dataclasses.replace(nxt, t_s=1e300),
+              dataclasses.replace(nxt, seq=2**62), dataclasses.replace(nxt, seq=10**7)]
+    huge = _measurement_json(nxt, value=[1.0] * 200_000, sigma=[1.0] * 200_000)
+    with tp.open_session(me) as session:
+        tp.wait_for_consumers(session, "inputs", ["fsw"], timeout_s=60)
+        pub = tp.Publisher(session, "inputs", topics.SIM_MEASUREMENTS)
+        status_pub = tp.Publisher(session, "inputs", topics.SIM_STATUS)
+        for meas in good[:101]:
+            pub.put(meas)
+        for meas in poison:
+            pub.put(meas)
+        flood_done = threading.Event()
+
+        def flood() -> None:
+            for _ in range(50):
+                pub.put_payload(huge)
+            flood_done.set()
+
+        flooder = threading.Thread(target=flood)
+        flooder.start()
+        t = time.monotonic()
+        during = tp.send_command(session, "inputs", m.Telecommand(id="busy", command="status"), timeout_s=10)
+        answered_s = time.monotonic() - t
+        flooder.join(60)
+        assert during.ok and answered_s < 5.0
+        for meas in good[101:]:
+            pub.put(meas)
+
+        deadline = time.monotonic() + 60
+        while True:
+            after = tp.send_command(session, "inputs", m.Telecommand(id="s", command="status"), timeout_s=10)
+            if after.status["received"] + after.status["decode_errors"] >= len(good) + 4 + 50 or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        s = after.status
+        assert (s.get("rejected_future"), s.get("rejected_sequence_jump"), s["decode_errors"]) == (2, 2, 50)
+        assert s["processed"] + s["pending"] == len(good) and s["time_reversed"] == 0 and s["lost"] == 0
+
+        end = m.RunStatus(t_s=good[-1].t_s, timestamp=good[-1].timestamp, run_id="inputs", source="sim",
+                          state="end-of-run", counts=tp.end_of_run_counts([pub]))
+        status_pub.put(end)
+        assert tp.drain(session, "inputs", end, ["fsw"], timeout_s=60) == {"fsw": True}
+        pub.close()
+        status_pub.close()
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err

@@ -65,7 +65,9 @@ class FswCore:
         self.reporter: AnomalyReporter | None = None
         if det.calibration is not None:
             self.reporter = AnomalyReporter(AnomalyDetector(det.calibration, config.families()))
-        self.guard = SequenceGuard(window=config.reorder_window)
+        self.guard = SequenceGuard(window=config.reorder_window, t_start=init.t_s,
+                                   max_ahead_s=config.intake.max_ahead_s,
+                                   max_sequence_jump=config.intake.max_sequence_jump)
         self.counters = CoreCounters()
         # a stage that raises is contained and counted by the executive (BudgetReport.errors)
         self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s)

@@ -18,6 +18,10 @@ from fsw.interface.typed import DecodeError, decode, encode, json_schema
 
 T = TypeVar("T")
 
+#: The largest payload any ICD message needs (an Estimate with a full 64 × 64 covariance is
+#: ~100 kB); anything longer is refused unparsed, so no single payload can hold the decoder.
+MAX_PAYLOAD_BYTES = 1 << 20
+
 
 class ICDError(ValueError):
     """A payload does not conform to the ICD."""
@@ -64,7 +68,11 @@ def from_dict(cls: type[T], data: Any) -> T:
 
 
 def from_json(cls: type[T], payload: bytes | bytearray | memoryview | str) -> T:
-    """Decode and validate a JSON payload as message type ``cls``."""
+    """Decode and validate a JSON payload as message type ``cls``.
+
+    A payload longer than :data:`MAX_PAYLOAD_BYTES` is refused before it is parsed."""
+    if len(payload) > MAX_PAYLOAD_BYTES:
+        raise ICDError(cls.__name__, "", f"a payload of at most {MAX_PAYLOAD_BYTES} bytes", f"{len(payload)} bytes")
     try:
         if isinstance(payload, (bytes, bytearray, memoryview)):
             payload = bytes(payload).decode("utf-8")

@@ -37,6 +37,16 @@ MEASUREMENT_DIMENSION: dict[str, int | None] = {k.name: k.dimension for k in kin
 AnomalyClass = Literal["none", "optical-measurement", "radiometric-measurement", "dynamics", "unknown"]
 ANOMALY_CLASSES: tuple[str, ...] = get_args(AnomalyClass)
 
+#: Size limits, enforced by the decoder before it looks at a single element: a message the ICD
+#: accepts is bounded in size, so decoding any payload takes bounded time (a 10⁶-element value
+#: would otherwise occupy the FSW's thread while telecommands wait).
+NAME_CHARS = 128  # identifiers: filters, networks, stations, targets, faults, run and command ids
+TEXT_CHARS = 4096  # free text: errors, status messages, textual status
+MAX_FILTERS = 64  # filters of a bank, and so every per-filter list or mapping
+MAX_STATES = 64  # components of a state vector
+MAX_COMPONENTS = 64  # components of one measurement value
+MAX_COUNTERS = 1024  # entries of a counter or status mapping
+
 RunState = Literal["start", "running", "end-of-run", "error"]
 
 TelecommandName = Literal["reset-gating", "enable-filter", "disable-filter", "set-param", "status"]
@@ -73,9 +83,9 @@ class Measurement:
     t_s: float = spec(doc="time tag read on the onboard clock at reception, TDB seconds past J2000", unit="s")
     timestamp: Stamp = spec(doc="time tag as Unix time (Foxglove header stamp)")
     kind: MeasurementKind = spec(doc="measurement type")
-    source: str = spec(doc="DSN station (range/doppler, e.g. 'DSS-14'), optical target ('mars', 'phobos', 'deimos'), or a scenario label")
-    value: tuple[float, ...] = spec(doc="observed value: range km; doppler km/s range-rate; optical [sample, line] pixel")
-    sigma: tuple[float, ...] = spec(doc="1-sigma noise of each component, same units as value")
+    source: str = spec(max_length=NAME_CHARS, doc="DSN station (range/doppler, e.g. 'DSS-14'), optical target ('mars', 'phobos', 'deimos'), or a scenario label")
+    value: tuple[float, ...] = spec(max_items=MAX_COMPONENTS, doc="observed value: range km; doppler km/s range-rate; optical [sample, line] pixel")
+    sigma: tuple[float, ...] = spec(max_items=MAX_COMPONENTS, doc="1-sigma noise of each component, same units as value")
     attitude_q: tuple[float, ...] | None = spec(
         None, doc="optical only: camera-to-ICRF attitude quaternion as known onboard, scalar first [w, x, y, z]", shape=(4,)
     )
@@ -110,7 +120,7 @@ class Truth:
     clock_drift_per_s: float = spec(doc="onboard clock fractional frequency drift", unit="1/s")
     srp_scale: float = spec(1.0, doc="true solar-radiation-pressure scale factor", unit="1")
     acs_accel_km_s2: tuple[float, ...] = spec((0.0, 0.0, 0.0), doc="true attitude-thruster acceleration, ICRF", unit="km/s^2", shape=(3,))
-    active_faults: tuple[str, ...] = spec((), doc="identifiers of the faults active at t_s")
+    active_faults: tuple[str, ...] = spec((), max_items=MAX_COUNTERS, max_length=NAME_CHARS, doc="identifiers of the faults active at t_s")
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,11 +129,11 @@ class FaultEvent:
 
     t_s: float = spec(doc="event epoch, TDB seconds past J2000", unit="s")
     timestamp: Stamp = spec(doc="epoch as Unix time")
-    fault_id: str = spec(doc="identifier of the fault within the scenario")
-    fault_type: str = spec(doc="fault type, e.g. 'optical-bias', 'range-bias', 'clock-bias', 'thruster-mismodel'")
+    fault_id: str = spec(max_length=NAME_CHARS, doc="identifier of the fault within the scenario")
+    fault_type: str = spec(max_length=NAME_CHARS, doc="fault type, e.g. 'optical-bias', 'range-bias', 'clock-bias', 'thruster-mismodel'")
     event: Literal["start", "end"] = spec(doc="whether the fault starts or ends")
     fault_class: AnomalyClass = spec(doc="the anomaly class a perfect diagnosis would give")
-    magnitude: dict[str, float] = spec(default_factory=dict, doc="fault parameters with units in their names")
+    magnitude: dict[str, float] = spec(default_factory=dict, max_items=MAX_COUNTERS, max_length=NAME_CHARS, doc="fault parameters with units in their names")
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,12 +142,12 @@ class FilterWeights:
 
     t_s: float = spec(doc="epoch of the last measurement in the batch, TDB seconds past J2000", unit="s")
     timestamp: Stamp = spec(doc="epoch as Unix time")
-    network: str = spec(doc="gating network name, e.g. 'chi2'")
+    network: str = spec(max_length=NAME_CHARS, doc="gating network name, e.g. 'chi2'")
     batch: int = spec(doc="batch index, 0-based", ge=0)
-    filters: tuple[str, ...] = spec(doc="filter names, bank order")
-    weights: tuple[float, ...] = spec(doc="weight per filter; sums to 1 over enabled filters", unit="1")
-    groups: dict[str, float] = spec(default_factory=dict, doc="hierarchical networks: top-level weight per bank")
-    statistic: tuple[float, ...] = spec((), doc="per-filter batch statistic behind the weights (e.g. G_k,i of Lubey & Ely 2022 eq. 6)")
+    filters: tuple[str, ...] = spec(max_items=MAX_FILTERS, max_length=NAME_CHARS, doc="filter names, bank order")
+    weights: tuple[float, ...] = spec(max_items=MAX_FILTERS, doc="weight per filter; sums to 1 over enabled filters", unit="1")
+    groups: dict[str, float] = spec(default_factory=dict, max_items=MAX_FILTERS, max_length=NAME_CHARS, doc="hierarchical networks: top-level weight per bank")
+    statistic: tuple[float, ...] = spec((), max_items=MAX_FILTERS, doc="per-filter batch statistic behind the weights (e.g. G_k,i of Lubey & Ely 2022 eq. 6)")
 
     def __post_init__(self) -> None:
         if len(self.filters) != len(self.weights):
@@ -157,10 +167,10 @@ class AnomalyReport:
     confidence: float = spec(doc="confidence in the class", unit="1", ge=0.0, le=1.0)
     onset_s: float | None = spec(None, doc="estimated onset epoch, TDB seconds past J2000", unit="s")
     declared_s: float | None = spec(None, doc="epoch at which the flag was raised", unit="s")
-    network: str = spec("", doc="gating network whose weights were used")
+    network: str = spec("", max_length=NAME_CHARS, doc="gating network whose weights were used")
     statistic: float = spec(0.0, doc="detection statistic at t_s", unit="1")
     threshold: float = spec(0.0, doc="declaration threshold", unit="1")
-    evidence: dict[str, float] = spec(default_factory=dict, doc="filter name -> weight at the decision")
+    evidence: dict[str, float] = spec(default_factory=dict, max_items=MAX_FILTERS, max_length=NAME_CHARS, doc="filter name -> weight at the decision")
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,14 +179,14 @@ class Estimate:
 
     t_s: float = spec(doc="epoch of the estimate, TDB seconds past J2000", unit="s")
     timestamp: Stamp = spec(doc="epoch as Unix time")
-    filter: str = spec(doc="filter name, or 'combined' (weighted sum) / 'best' (highest weight)")
+    filter: str = spec(max_length=NAME_CHARS, doc="filter name, or 'combined' (weighted sum) / 'best' (highest weight)")
     position_km: tuple[float, ...] = spec(doc="Mars-centred ICRF position", unit="km", shape=(3,))
     velocity_km_s: tuple[float, ...] = spec(doc="Mars-centred ICRF velocity", unit="km/s", shape=(3,))
     position_sigma_km: float = spec(doc="root-trace of the position covariance (RTPC)", unit="km", ge=0.0)
-    state_names: tuple[str, ...] = spec(doc="names of the state components")
-    state: tuple[float, ...] = spec(doc="full state vector, units per state_names")
-    sigma: tuple[float, ...] = spec(doc="1-sigma of each state component (sqrt of the covariance diagonal)")
-    covariance: tuple[tuple[float, ...], ...] | None = spec(None, doc="full covariance, row-major (optional)")
+    state_names: tuple[str, ...] = spec(max_items=MAX_STATES, max_length=NAME_CHARS, doc="names of the state components")
+    state: tuple[float, ...] = spec(max_items=MAX_STATES, doc="full state vector, units per state_names")
+    sigma: tuple[float, ...] = spec(max_items=MAX_STATES, doc="1-sigma of each state component (sqrt of the covariance diagonal)")
+    covariance: tuple[tuple[float, ...], ...] | None = spec(None, max_items=MAX_STATES, doc="full covariance, row-major (optional)")
 
     def __post_init__(self) -> None:
         n = len(self.state_names)
@@ -208,11 +218,11 @@ class BudgetReport:
 class Telecommand:
     """A command to the FSW (ground → fsw, as a Zenoh query payload)."""
 
-    id: str = spec(doc="command identifier chosen by the sender, echoed in the reply")
+    id: str = spec(max_length=NAME_CHARS, doc="command identifier chosen by the sender, echoed in the reply")
     command: TelecommandName = spec(doc="what to do")
-    network: str | None = spec(None, doc="gating network the command applies to (reset-gating, set-param)")
-    filter: str | None = spec(None, doc="filter the command applies to (enable-filter, disable-filter)")
-    param: str | None = spec(None, doc="parameter name (set-param), e.g. 'sigma_w', 'batch_size', 'eta'")
+    network: str | None = spec(None, max_length=NAME_CHARS, doc="gating network the command applies to (reset-gating, set-param)")
+    filter: str | None = spec(None, max_length=NAME_CHARS, doc="filter the command applies to (enable-filter, disable-filter)")
+    param: str | None = spec(None, max_length=NAME_CHARS, doc="parameter name (set-param), e.g. 'sigma_w', 'batch_size', 'eta'")
     value: float | None = spec(None, doc="parameter value (set-param)")
 
     def __post_init__(self) -> None:
@@ -230,11 +240,11 @@ class Telecommand:
 class TelecommandReply:
     """The FSW's answer to a telecommand."""
 
-    id: str = spec(doc="identifier of the command answered ('' if it could not be read)")
+    id: str = spec(max_length=NAME_CHARS, doc="identifier of the command answered ('' if it could not be read)")
     ok: bool = spec(doc="the command was valid and carried out")
-    error: str = spec("", doc="why the command was rejected")
-    status: dict[str, float] = spec(default_factory=dict, doc="counters and values (status command)")
-    detail: dict[str, str] = spec(default_factory=dict, doc="textual status (filters enabled, networks, ...)")
+    error: str = spec("", max_length=TEXT_CHARS, doc="why the command was rejected")
+    status: dict[str, float] = spec(default_factory=dict, max_items=MAX_COUNTERS, max_length=NAME_CHARS, doc="counters and values (status command)")
+    detail: dict[str, str] = spec(default_factory=dict, max_items=MAX_COUNTERS, max_length=TEXT_CHARS, doc="textual status (filters enabled, networks, ...)")
 
 
 @dataclass(frozen=True, slots=True)
@@ -243,11 +253,11 @@ class RunStatus:
 
     t_s: float = spec(doc="simulated epoch, TDB seconds past J2000", unit="s")
     timestamp: Stamp = spec(doc="epoch as Unix time")
-    run_id: str = spec(doc="run identifier (the Zenoh key prefix navbank/<run-id>/)")
+    run_id: str = spec(max_length=NAME_CHARS, doc="run identifier (the Zenoh key prefix navbank/<run-id>/)")
     source: Literal["sim", "fsw", "ground", "replay"] = spec(doc="process reporting")
     state: RunState = spec(doc="lifecycle state")
-    counts: dict[str, int] = spec(default_factory=dict, doc="counters, e.g. published, processed, rejected, lost")
-    message: str = spec("", doc="human-readable detail (errors)")
+    counts: dict[str, int] = spec(default_factory=dict, max_items=MAX_COUNTERS, max_length=NAME_CHARS, doc="counters, e.g. published, processed, rejected, lost")
+    message: str = spec("", max_length=TEXT_CHARS, doc="human-readable detail (errors)")
 
 
 #: Every ICD type, by its schema name.

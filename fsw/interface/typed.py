@@ -51,14 +51,20 @@ def spec(
     le: float | None = None,
     lt: float | None = None,
     shape: tuple[int | None, ...] | None = None,
+    max_items: int | None = None,
+    max_length: int | None = None,
     default_factory: Any = _MISSING,
 ) -> Any:
     """A dataclass field with its documentation, unit and admissible range.
 
     ``shape`` constrains vectors/matrices: ``(3,)``, ``(6, 6)``; ``None`` in a dimension means
-    "any length". Mutable defaults are not allowed; use tuples.
+    "any length". ``max_items`` bounds every dimension of a list and the entries of a mapping,
+    ``max_length`` the characters of a string (and of a mapping's keys): decoding checks them
+    before it looks at a single element, so an oversized message costs no more than its length.
+    Mutable defaults are not allowed; use tuples.
     """
-    meta = {"doc": doc, "unit": unit, "ge": ge, "gt": gt, "le": le, "lt": lt, "shape": shape}
+    meta = {"doc": doc, "unit": unit, "ge": ge, "gt": gt, "le": le, "lt": lt, "shape": shape,
+            "max_items": max_items, "max_length": max_length}
     if default_factory is not _MISSING:
         return dataclasses.field(default_factory=default_factory, metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
@@ -126,6 +132,18 @@ def _check_range(value: float, meta: dict, path: str) -> None:
         raise DecodeError(path, "a number " + " and ".join(parts), f"{value:g}")
 
 
+def _check_items(value: list | tuple | dict, meta: dict, path: str) -> None:
+    n = meta.get("max_items")
+    if n is not None and len(value) > n:
+        raise DecodeError(path, f"at most {n} {'entries' if isinstance(value, dict) else 'elements'}", f"{len(value)}")
+
+
+def _check_length(value: str, meta: dict, path: str) -> None:
+    n = meta.get("max_length")
+    if n is not None and len(value) > n:
+        raise DecodeError(path, f"a string of at most {n} characters", f"{len(value)} characters")
+
+
 def _join(path: str, key: Any) -> str:
     if isinstance(key, int):
         return f"{path}[{key}]"
@@ -166,6 +184,7 @@ def _decode_value(tp: Any, value: Any, path: str, meta: dict, dim: int = 0) -> A
     if tp is str:
         if not isinstance(value, str):
             raise DecodeError(path, "a string", _type_name(value))
+        _check_length(value, meta, path)
         return value
     if origin is Literal:
         choices = get_args(tp)
@@ -176,6 +195,7 @@ def _decode_value(tp: Any, value: Any, path: str, meta: dict, dim: int = 0) -> A
         args = get_args(tp)
         if not isinstance(value, (list, tuple)):
             raise DecodeError(path, "a list", _type_name(value))
+        _check_items(value, meta, path)
         shape = meta.get("shape")
         if shape is not None and dim < len(shape) and shape[dim] is not None:
             if len(value) != shape[dim]:
@@ -193,10 +213,12 @@ def _decode_value(tp: Any, value: Any, path: str, meta: dict, dim: int = 0) -> A
         ktype, vtype = get_args(tp)
         if not isinstance(value, dict):
             raise DecodeError(path, "a mapping", _type_name(value))
+        _check_items(value, meta, path)
         out = {}
         for k, v in value.items():
             if not isinstance(k, str):
                 raise DecodeError(path, "string keys", _type_name(k))
+            _check_length(k, meta, path)
             out[k] = _decode_value(vtype, v, _join(path, k), meta, dim)
         return out
     if isinstance(tp, type) and dataclasses.is_dataclass(tp):
@@ -274,7 +296,10 @@ def _schema_of(tp: Any, meta: dict, dim: int = 0) -> dict:
                 out[js] = meta[key]
         return out
     if tp is str:
-        return {"type": "string"}
+        out = {"type": "string"}
+        if meta.get("max_length") is not None:
+            out["maxLength"] = meta["max_length"]
+        return out
     if origin is Literal:
         return {"enum": list(get_args(tp))}
     if origin is tuple:
@@ -285,13 +310,20 @@ def _schema_of(tp: Any, meta: dict, dim: int = 0) -> dict:
             shape = meta.get("shape")
             if shape is not None and dim < len(shape) and shape[dim] is not None:
                 out["minItems"] = out["maxItems"] = shape[dim]
+            elif meta.get("max_items") is not None:
+                out["maxItems"] = meta["max_items"]
         else:
             out["prefixItems"] = [_schema_of(a, {}, dim + 1) for a in args]
             out["minItems"] = out["maxItems"] = len(args)
             out["items"] = False
         return out
     if origin is dict:
-        return {"type": "object", "additionalProperties": _schema_of(get_args(tp)[1], meta, dim)}
+        out = {"type": "object", "additionalProperties": _schema_of(get_args(tp)[1], meta, dim)}
+        if meta.get("max_items") is not None:
+            out["maxProperties"] = meta["max_items"]
+        if meta.get("max_length") is not None:
+            out["propertyNames"] = {"maxLength": meta["max_length"]}
+        return out
     if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return json_schema(tp, top=False)
     raise TypeError(f"unsupported field type {tp!r}")
