@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import json
 
+import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from fsw.core import FswCore
 from fsw.core.commands import COMMANDS
@@ -147,3 +151,33 @@ def test_reset_gating_restarts_the_detector_only_with_its_network():
     reports = [msg for t, msg in out if t == topics.FSW_ANOMALY]
     assert len(reports) == 2 and all(isinstance(r, m.AnomalyReport) and not r.flag for r in reports)
     assert reports[0].t_s == core.t0  # no batch yet: dated by the newest epoch the core knows
+
+
+_FIELDS = {
+    "id": st.text(max_size=8),
+    "command": st.sampled_from([*m.TELECOMMANDS, "self-destruct", ""]),
+    "network": st.one_of(st.none(), st.sampled_from(["chi2", "magill", "chi2-two-sided", "all", "*", "nope", ""])),
+    "filter": st.one_of(st.none(), st.sampled_from(["radio", "optical", "fused", "nope"])),
+    "param": st.one_of(st.none(), st.sampled_from(["sigma_w", "batch_size", "lower_bound", "memory_matrix", "x"])),
+    "value": st.one_of(st.none(), st.floats(allow_nan=False, allow_infinity=False), st.integers(-10**6, 10**6),
+                       st.text(max_size=4)),
+}
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.one_of(st.fixed_dictionaries({}, optional=_FIELDS).map(lambda d: json.dumps(d).encode()),
+                          st.binary(max_size=40)), max_size=12))
+def test_any_telecommand_sequence_is_answered_counted_and_never_raises(payloads):
+    """Whatever arrives on the command queryable: a reply for each, every one counted exactly
+    once, the bank always left with an enabled filter, and every network's weights a
+    distribution (a network learns of a disabled filter with the next bank record)."""
+    core, _ = _core()
+    for payload in payloads:
+        reply = core.command_payload(payload)
+        assert isinstance(reply, m.TelecommandReply) and (reply.ok or reply.error)
+    c = core.counters
+    assert c.commands_ok + c.commands_rejected == len(payloads)
+    assert core.bank.active.any()
+    for net in core.networks.values():
+        w = np.asarray(net.weights)
+        assert np.all(w >= 0.0) and abs(w.sum() - 1.0) < 1e-9
