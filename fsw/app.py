@@ -43,10 +43,9 @@ def run_fsw(
         core = FswCore(config, life.put, run_id=run_id)
         # the FIFO must hold more than the producer's credit window (see CreditWindow)
         sub = life.subscriber(ALLOWED_TOPICS, decode=False, role="fsw", capacity=16384)
-        server = life.command_server(core.command, threaded=False)
+        server = life.command_server(core.command, threaded=False, on_malformed=core.record_malformed_command)
         refused = 0
         core.extra_counters = lambda: {
-            "commands_malformed": int(server.status()["malformed"]),
             "refused_topics": refused,
             "transport_gaps": sum(sub.gaps.values()),
         }

@@ -114,7 +114,8 @@ def test_unknown_commands_networks_and_filters_are_rejected_and_counted():
     assert core.counters.commands_rejected == 6 and core.counters.commands_ok == 0
     assert _states(core) == before and (core.bank.active == active).all()
     malformed = core.command_payload(b'{"id": "x", "command": "set-param"}')
-    assert not malformed.ok and core.counters.commands_rejected == 7
+    assert not malformed.ok and malformed.error.startswith("malformed telecommand")
+    assert core.counters.commands_rejected == 6 and core.counters.commands_malformed == 1
 
 
 def test_filters_are_disabled_and_enabled_but_never_the_last_one():
@@ -176,7 +177,7 @@ def test_any_telecommand_sequence_is_answered_counted_and_never_raises(payloads)
         reply = core.command_payload(payload)
         assert isinstance(reply, m.TelecommandReply) and (reply.ok or reply.error)
     c = core.counters
-    assert c.commands_ok + c.commands_rejected == len(payloads)
+    assert c.commands_ok + c.commands_rejected + c.commands_malformed == len(payloads)
     assert core.bank.active.any()
     for net in core.networks.values():
         w = np.asarray(net.weights)

@@ -50,6 +50,17 @@ def describe(summary: RunSummary) -> str:
     b = s.budget
     lines.append(f"budget ({b.mode}): {b.frames} frames, max utilisation {b.max_utilisation:.2f}, "
                  f"{b.overruns} overruns, max backlog {b.max_backlog}, final backlog {b.final_backlog}")
+    if s.commands:
+        # a commanded run says so: a command can change what every line above reports
+        changed = [c for c in s.commands if c.ok and c.command != "status"]
+        refused = sum(not c.ok for c in s.commands)
+        lines.append(f"telecommands: {len(s.commands)} served, {len(changed)} changed the FSW, {refused} refused")
+        for c in changed[:10]:
+            what = " ".join(f"{k} {v}" for k, v in (("network", c.network), ("filter", c.filter), ("param", c.param),
+                                                     ("value", c.value)) if v is not None)
+            lines.append(f"  day {c.day:6.2f}  {c.command} {what}".rstrip())
+        if len(changed) > 10:
+            lines.append(f"  ... and {len(changed) - 10} more (summary.json lists them all)")
     if s.wall_time_s is not None:
         lines.append(f"wall time {s.wall_time_s:.1f} s")
     return "\n".join(lines)

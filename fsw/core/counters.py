@@ -16,7 +16,7 @@ from fsw.executive import FrameExecutive
 from fsw.filters.bank import FilterBank
 from fsw.ingest import SequenceGuard
 
-#: Counters a driver adds to the core's own (e.g. malformed telecommands, transport gaps).
+#: Counters a driver adds to the core's own (e.g. refused topics, transport gaps).
 ExtraCounters = Callable[[], dict[str, int]]
 
 
@@ -27,6 +27,7 @@ class CoreCounters:
     gating_errors: int = 0
     commands_ok: int = 0
     commands_rejected: int = 0
+    commands_malformed: int = 0  # payloads that did not decode as a Telecommand
     emitted: Counter[str] = field(default_factory=Counter)  # messages per topic, in first-emit order
 
 
@@ -44,6 +45,7 @@ def status_counts(counters: CoreCounters, guard: SequenceGuard, bank: FilterBank
     c["stage_errors"] = len(executive.errors)
     c["commands_ok"] = counters.commands_ok
     c["commands_rejected"] = counters.commands_rejected
+    c["commands_malformed"] = counters.commands_malformed
     c["backlog"] = int(executive.backlog)
     c["pending"] = int(executive.pending_jobs)  # queued, due or not yet due
     c["rejected"] = c.get("rejected", 0) + c["decode_errors"] + c["bank_rejected"]

@@ -32,8 +32,8 @@ from fsw.core import commands
 from fsw.core.counters import CoreCounters, ExtraCounters, status_counts
 from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_job, gating_cost, ingest_cost,
                                no_gc_pauses, telemetry_cost)
-from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, budget_message, estimate_message,
-                                status_message, weights_message)
+from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, budget_message, command_record,
+                                estimate_message, status_message, weights_message)
 from fsw.executive import BudgetReportData, FrameExecutive
 from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.filters.bank import FilterBank, FilterEstimate
@@ -69,6 +69,8 @@ class FswCore:
                                    max_ahead_s=config.intake.max_ahead_s,
                                    max_sequence_jump=config.intake.max_sequence_jump)
         self.counters = CoreCounters()
+        #: measurement payloads taken so far (decodable or not): where a served command sits in the stream
+        self.taken = 0
         # a stage that raises is contained and counted by the executive (BudgetReport.errors)
         self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s)
         self.t0 = init.t_s
@@ -142,12 +144,14 @@ class FswCore:
         try:
             meas = codec.from_json(m.Measurement, payload)
         except codec.ICDError:
+            self.taken += 1
             self.counters.decode_errors += 1
             return
         self.ingest(meas)
 
     def ingest(self, meas: m.Measurement) -> None:
         """Accept one measurement (any order; see :class:`fsw.ingest.SequenceGuard`)."""
+        self.taken += 1
         for released in self.guard.push(meas):
             self._queue(released)
 
@@ -292,14 +296,24 @@ class FswCore:
     # -- telecommands --------------------------------------------------------------------------
     def command(self, tc: m.Telecommand) -> m.TelecommandReply:
         """Carry out a telecommand (see :mod:`fsw.core.commands`); anything that cannot be done
-        is an error reply and changes nothing."""
-        return commands.execute(self, tc)
+        is an error reply and changes nothing. Either way the command and its reply are
+        published as a :class:`~fsw.interface.messages.CommandRecord`."""
+        reply = commands.execute(self, tc)
+        self._emit(topics.FSW_COMMANDS, command_record(self._last_t, self.taken, tc, reply, ended=self.finished))
+        return reply
 
     def command_payload(self, payload: bytes | str) -> m.TelecommandReply:
         """A raw telecommand payload: malformed ones get an error reply and are counted."""
         try:
             tc = codec.from_json(m.Telecommand, payload)
         except codec.ICDError as exc:
-            self.counters.commands_rejected += 1
-            return m.TelecommandReply(id="", ok=False, error=str(exc)[:500])
+            reply = m.TelecommandReply(id="", ok=False, error=f"malformed telecommand: {exc}"[:500])
+            self.record_malformed_command(payload, reply)
+            return reply
         return self.command(tc)
+
+    def record_malformed_command(self, payload: bytes | str, reply: m.TelecommandReply) -> None:
+        """Count a telecommand payload that did not decode and publish its record (it changed
+        nothing; a transport that answers such payloads itself reports them here)."""
+        self.counters.commands_malformed += 1
+        self._emit(topics.FSW_COMMANDS, command_record(self._last_t, self.taken, None, reply, payload, self.finished))

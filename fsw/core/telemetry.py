@@ -25,7 +25,7 @@ from fsw.interface import messages as m
 from fsw.interface.messages import RunState
 
 #: Every message the FSW core emits.
-FswMessage = m.FilterWeights | m.AnomalyReport | m.Estimate | m.BudgetReport | m.RunStatus
+FswMessage = m.FilterWeights | m.AnomalyReport | m.Estimate | m.BudgetReport | m.RunStatus | m.CommandRecord
 #: Where the core's messages go: ``emit(topic, message)`` (a publisher, a list, a recorder).
 Emit = Callable[[str, FswMessage], None]
 
@@ -107,6 +107,18 @@ class DeclarationClock:
         if state.declared_t is None:
             return None
         return max(float(state.declared_t), self.declared_at or 0.0)
+
+
+def command_record(t: float, taken: int, tc: m.Telecommand | None, reply: m.TelecommandReply,
+                   payload: bytes | str = b"", ended: bool = False) -> m.CommandRecord:
+    """The record of one served telecommand; ``payload`` (kept only when ``tc`` is None: it did
+    not decode) is stored as text, truncated to what the ICD allows."""
+    text = ""
+    if tc is None:
+        raw = payload if isinstance(payload, str) else bytes(payload).decode("utf-8", "replace")
+        text = raw[: m.TEXT_CHARS]
+    return m.CommandRecord(t_s=float(t), timestamp=stamp(t), taken=int(taken), telecommand=tc, reply=reply, payload=text,
+                           ended=ended)
 
 
 def anomaly_message(state: AnomalyState, t: float, clock: DeclarationClock) -> m.AnomalyReport:

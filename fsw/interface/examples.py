@@ -62,6 +62,14 @@ def examples() -> dict[str, list]:
             m.TelecommandReply(id="c1", ok=True, status={"measurements_processed": 1234.0}),
             m.TelecommandReply(id="", ok=False, error="Telecommand.command: expected one of …"),
         ],
+        "CommandRecord": [
+            m.CommandRecord(t_s=_T, timestamp=_STAMP, taken=1234,
+                            telecommand=m.Telecommand(id="c1", command="set-param", network="chi2", param="sigma_w",
+                                                      value=0.1),
+                            reply=m.TelecommandReply(id="c1", ok=True, status={"sigma_w": 0.1})),
+            m.CommandRecord(t_s=_T, timestamp=_STAMP, taken=1240, telecommand=None, payload="{\"id\": 7}",
+                            reply=m.TelecommandReply(id="", ok=False, error="malformed telecommand: …")),
+        ],
         "RunStatus": [
             m.RunStatus(t_s=_T, timestamp=_STAMP, run_id="run-1", source="sim", state="end-of-run",
                         counts={"published": 21000}),

@@ -248,6 +248,21 @@ class TelecommandReply:
 
 
 @dataclass(frozen=True, slots=True)
+class CommandRecord:
+    """A telecommand as the FSW served it, with its reply (fsw → ground): commands are part of the
+    record, so a commanded run can be re-run with the same commands at the same points."""
+
+    t_s: float = spec(doc="FSW clock when served: epoch of the newest measurement handled, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    taken: int = spec(doc="measurement payloads the FSW had taken when it served the command (a re-run serves it "
+                      "after as many)", ge=0)
+    telecommand: Telecommand | None = spec(doc="the command; null when the payload did not decode")
+    reply: TelecommandReply = spec(doc="the FSW's answer")
+    payload: str = spec("", max_length=TEXT_CHARS, doc="the payload as received, when it did not decode (truncated)")
+    ended: bool = spec(False, doc="served after the FSW's end-of-run sequence")
+
+
+@dataclass(frozen=True, slots=True)
 class RunStatus:
     """Lifecycle and counters of a process (start, periodic, end-of-run)."""
 
@@ -273,6 +288,7 @@ MESSAGE_TYPES: dict[str, type] = {
         BudgetReport,
         Telecommand,
         TelecommandReply,
+        CommandRecord,
         RunStatus,
     )
 }

@@ -22,6 +22,7 @@ FSW_ESTIMATE = "fsw/estimate"  # + "/<filter>" ("combined", "best", or a filter 
 FSW_BUDGET = "fsw/budget"
 FSW_STATUS = "fsw/status"
 FSW_COMMAND = "fsw/cmd"  # queryable: Telecommand in, TelecommandReply out
+FSW_COMMANDS = "fsw/commands"  # every telecommand served, with its reply (CommandRecord)
 GROUND_STATUS = "ground/status"
 
 #: topic (or topic prefix ending in "/") -> ICD type
@@ -35,6 +36,7 @@ TOPIC_TYPES: dict[str, type] = {
     FSW_ESTIMATE + "/": m.Estimate,
     FSW_BUDGET: m.BudgetReport,
     FSW_STATUS: m.RunStatus,
+    FSW_COMMANDS: m.CommandRecord,
     GROUND_STATUS: m.RunStatus,
 }
 

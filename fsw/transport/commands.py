@@ -41,6 +41,8 @@ class CommandServer:
 
     Counters: ``served`` (valid commands answered), ``malformed`` (payloads rejected before the
     handler), ``handler_errors`` (handler raised or returned something else than a reply).
+    ``on_malformed(payload, reply)``, if given, is told of every payload rejected before the
+    handler (so the FSW can put it on the record).
     """
 
     def __init__(
@@ -50,8 +52,10 @@ class CommandServer:
         handler: Callable[[Telecommand], TelecommandReply],
         *,
         threaded: bool = True,
+        on_malformed: Callable[[bytes, TelecommandReply], None] | None = None,
     ):
         self.handler = handler
+        self.on_malformed = on_malformed
         self.served = 0
         self.malformed = 0
         self.handler_errors = 0
@@ -69,17 +73,16 @@ class CommandServer:
 
     def _answer(self, payload: bytes | None, schema: str) -> TelecommandReply:
         if payload is None:
-            self._count_malformed("no payload")
-            return TelecommandReply(id="", ok=False, error="malformed telecommand: no payload")
+            return self._refuse(b"", "no payload", TelecommandReply(id="", ok=False, error="malformed telecommand: no payload"))
         want = codec.schema_name(Telecommand)
         if schema and schema != want:
-            self._count_malformed(f"schema {schema}")
-            return TelecommandReply(id=_best_effort_id(payload), ok=False, error=f"malformed telecommand: schema {schema}, expected {want}")
+            return self._refuse(payload, f"schema {schema}", TelecommandReply(
+                id=_best_effort_id(payload), ok=False, error=f"malformed telecommand: schema {schema}, expected {want}"))
         try:
             cmd = codec.from_json(Telecommand, payload)
         except codec.ICDError as exc:
-            self._count_malformed(str(exc))
-            return TelecommandReply(id=_best_effort_id(payload), ok=False, error=f"malformed telecommand: {exc}"[:500])
+            return self._refuse(payload, str(exc), TelecommandReply(
+                id=_best_effort_id(payload), ok=False, error=f"malformed telecommand: {exc}"[:500]))
         try:
             reply = self.handler(cmd)
             if not isinstance(reply, TelecommandReply):
@@ -94,10 +97,18 @@ class CommandServer:
             self.served += 1
         return reply
 
-    def _count_malformed(self, why: str) -> None:
+    def _refuse(self, payload: bytes, why: str, reply: TelecommandReply) -> TelecommandReply:
         with self._lock:
             self.malformed += 1
             self.last_error = why[:300]
+        if self.on_malformed is not None:
+            try:
+                self.on_malformed(payload, reply)
+            except Exception as exc:  # the record is lost, the reply still goes out
+                with self._lock:
+                    self.handler_errors += 1
+                    self.last_error = f"{type(exc).__name__}: {exc}"
+        return reply
 
     def _serve(self, query: Any) -> None:
         with query:

@@ -148,9 +148,10 @@ class ProcessLifecycle:
         self._subs.append(sub)
         return sub
 
-    def command_server(self, handler: Callable[[Telecommand], TelecommandReply], *, threaded: bool = True) -> CommandServer:
+    def command_server(self, handler: Callable[[Telecommand], TelecommandReply], *, threaded: bool = True,
+                       on_malformed: Callable[[bytes, TelecommandReply], None] | None = None) -> CommandServer:
         """A :class:`CommandServer` of this run, closed with the lifecycle."""
-        server = CommandServer(self.session, self.run_id, handler, threaded=threaded)
+        server = CommandServer(self.session, self.run_id, handler, threaded=threaded, on_malformed=on_malformed)
         self._servers.append(server)
         return server
 

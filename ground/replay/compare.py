@@ -10,7 +10,8 @@ into the field name (``weights``, ``state``, ``sigma``), mapping keys are kept
 
 Status messages are the exception to "present on one side only is a mismatch": the FSW process
 adds transport counters to its statuses (malformed telecommands, refused topics, transport
-gaps), which an in-process re-run does not have; such keys are listed, not compared.
+gaps), which an in-process re-run does not have; such keys are listed, not compared. The same
+holds for the counters in the replies to ``status`` telecommands in the command records.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from fsw.interface import codec, topics
 
 _INDEX = re.compile(r"\[\d+\]")
 STATUS_TOPICS = {topics.mcap_topic(topics.FSW_STATUS)}
+COMMAND_TOPICS = {topics.mcap_topic(topics.FSW_COMMANDS)}
 
 
 @dataclass
@@ -133,7 +135,7 @@ def compare_messages(topic: str, recorded: list[Any], rerun: list[Any], *, compa
     td = TopicDiff(topic, len(recorded), len(rerun), compared=compared, note=note)
     if not compared:
         return td
-    status = topic in STATUS_TOPICS
+    counters = "counts." if topic in STATUS_TOPICS else "reply.status." if topic in COMMAND_TOPICS else None
     for i, (ra, rb) in enumerate(zip(recorded, rerun)):
         da = flatten(ra if isinstance(ra, dict) else codec.to_dict(ra))
         db = flatten(rb if isinstance(rb, dict) else codec.to_dict(rb))
@@ -141,8 +143,8 @@ def compare_messages(topic: str, recorded: list[Any], rerun: list[Any], *, compa
         for path in da.keys() | db.keys():
             name = _INDEX.sub("", path)
             if path not in da or path not in db:
-                if status and name.startswith("counts."):
-                    td.one_sided.add(f"{name.split('.', 1)[1]} (only {'recorded' if path in da else 're-run'})")
+                if counters is not None and name.startswith(counters):
+                    td.one_sided.add(f"{name[len(counters):]} (only {'recorded' if path in da else 're-run'})")
                     continue
                 fd = td.fields.setdefault(name, FieldDiff())
                 fd.mismatches += 1

@@ -21,7 +21,7 @@ from fsw.interface import codec, topics
 from ground.replay.compare import Comparison, compare_runs
 from ground.replay.fsw_config import load_fsw_config
 from ground.replay.recording import RecordingError, iter_raw, run_info
-from ground.replay.rerun import RerunResult, recorded_measurement_stream, rerun_fsw
+from ground.replay.rerun import RerunResult, recorded_commands, recorded_measurement_stream, rerun_fsw
 
 BUDGET_TOPIC = topics.mcap_topic(topics.FSW_BUDGET)
 FSW_PREFIX = "/fsw/"
@@ -91,7 +91,7 @@ def rerun_and_compare(
     stream, _ = recorded_measurement_stream(path)
     if not stream:
         raise RecordingError(f"{info.path}: no /sim/measurements recorded")
-    rerun = rerun_fsw(config, stream, run_id=info.run_id or "rerun")
+    rerun = rerun_fsw(config, stream, run_id=info.run_id or "rerun", commands=recorded_commands(path))
     rerun_topics: dict[str, list] = {}
     for topic, msg in rerun.outputs:
         rerun_topics.setdefault(topics.mcap_topic(topic), []).append(msg)

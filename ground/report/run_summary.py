@@ -15,9 +15,9 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from fsw.interface import topics
+from fsw.interface import messages as m, topics
 from ground.report.run_facts import anomaly_summary
-from ground.report.summary_types import (BudgetBlock, FaultBlock, FaultEventRecord, GatingEntry,
+from ground.report.summary_types import (BudgetBlock, CommandEntry, FaultBlock, FaultEventRecord, GatingEntry,
                                          MeasurementCounts, RunSummary)
 
 DAY_S = 86400.0
@@ -28,6 +28,14 @@ def _by_topic(messages: Iterable[tuple[str, Any]]) -> dict[str, list]:
     for topic, msg in messages:
         out[topic.strip("/")].append(msg)
     return out
+
+
+def _command_entry(c: m.CommandRecord, t0: float) -> CommandEntry:
+    tc = c.telecommand
+    return CommandEntry(t_s=c.t_s, day=(c.t_s - t0) / DAY_S, id=c.reply.id, command=tc.command if tc else "malformed",
+                        ok=c.reply.ok, error=c.reply.error, network=tc.network if tc else None,
+                        filter=tc.filter if tc else None, param=tc.param if tc else None,
+                        value=tc.value if tc else None)
 
 
 def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, fault: str | None,
@@ -105,6 +113,7 @@ def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, 
     )
 
     lost_count = counts.get("lost", 0) if lost is None else lost
+    served = [_command_entry(c, t0) for c in by.get(topics.FSW_COMMANDS, [])]
     return RunSummary(
         scenario=scenario,
         seed=seed,
@@ -128,4 +137,5 @@ def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, 
         position_within_3sigma=within_3sigma,
         budget=budget,
         wall_time_s=wall_time_s,
+        commands=tuple(served) or None,
     )

@@ -61,6 +61,24 @@ class MeasurementCounts(JsonRecord):
 
 
 @dataclass(frozen=True)
+class CommandEntry(JsonRecord):
+    """One telecommand the FSW served during the run."""
+
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"network", "filter", "param", "value"})
+
+    t_s: float = spec(doc="FSW clock when served, TDB seconds past J2000", unit="s")
+    day: float = spec(doc="days since the scenario start", unit="d")
+    id: str = spec(doc="the sender's command id")
+    command: str = spec(doc="the command, or 'malformed' for a payload that did not decode")
+    ok: bool = spec(doc="carried out")
+    error: str = spec("", doc="why it was rejected")
+    network: str | None = spec(None, doc="gating network addressed")
+    filter: str | None = spec(None, doc="filter addressed")
+    param: str | None = spec(None, doc="parameter set")
+    value: float | None = spec(None, doc="value set")
+
+
+@dataclass(frozen=True)
 class GatingEntry(JsonRecord):
     """One gating network's weights over the run, filter name -> weight."""
 
@@ -168,8 +186,9 @@ class RunFiles(JsonRecord):
 class RunSummary(JsonRecord):
     """Every number ``navbank run`` prints and writes to ``summary.json``."""
 
-    # monitors: campaign runs with monitors; run_id and files: summaries of ``navbank run``
-    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"monitors", "run_id", "files"})
+    # monitors: campaign runs with monitors; run_id and files: summaries of ``navbank run``;
+    # commands: runs that were commanded
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"monitors", "run_id", "files", "commands"})
 
     scenario: str = spec(doc="scenario name")
     seed: int = spec(doc="random seed of the run")
@@ -187,3 +206,4 @@ class RunSummary(JsonRecord):
     monitors: dict[str, MonitorBlock] | None = spec(None, doc="further detectors replayed on the run, per network")
     run_id: str | None = spec(None, doc="the run's id")
     files: RunFiles | None = spec(None, doc="the run's files")
+    commands: tuple[CommandEntry, ...] | None = spec(None, doc="telecommands the FSW served, in order")
