@@ -24,6 +24,7 @@ COMMANDS = (
     "tools.commands.fsw",
     "tools.commands.ground",
     "tools.commands.replay",
+    "tools.commands.recover",
     "tools.commands.bench",
     "tools.commands.report",
     "tools.commands.campaign",
