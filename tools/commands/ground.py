@@ -7,6 +7,7 @@ import time
 
 from fsw.transport import TransportError
 from ground import logger
+from tools.commands.arg_types import run_id_arg
 from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 
 NAME = "ground"
@@ -24,7 +25,7 @@ def add_arguments(p) -> None:
 
 def _add_log_arguments(parser) -> None:
     """Options of ``navbank ground log``."""
-    parser.add_argument("--run-id", required=True, help="run to record (Zenoh keys navbank/<run-id>/**)")
+    parser.add_argument("--run-id", type=run_id_arg, required=True, metavar="ID", help="run to record (Zenoh keys navbank/<run-id>/**)")
     parser.add_argument("--out", required=True, metavar="FILE", help="MCAP file to write")
     parser.add_argument("--producers", default="sim,fsw", metavar="LIST",
                         help="comma-separated processes whose end-of-run ends the recording (default sim,fsw)")

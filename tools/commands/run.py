@@ -9,7 +9,8 @@ import time
 from pathlib import Path
 
 from tools.commands.errors import UsageError
-from tools.commands.common import add_scenario_arguments, new_run_id, run_id_arg, scenario_from_args
+from tools.commands.arg_types import run_id_arg
+from tools.commands.common import add_scenario_arguments, new_run_id, scenario_from_args
 from tools.launcher import RunFailed, launch, write_summary
 from tools.scenario import ScenarioConfig, resolve
 

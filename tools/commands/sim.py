@@ -8,7 +8,8 @@ import time
 import fsw.transport as tp
 from sim.stream import generate
 from tools.commands.errors import UsageError
-from tools.commands.common import ProgressBar, add_scenario_arguments, run_id_arg, scenario_from_args
+from tools.commands.arg_types import run_id_arg
+from tools.commands.common import ProgressBar, add_scenario_arguments, scenario_from_args
 from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 from tools.scenario import resolve
 
