@@ -15,6 +15,7 @@ from typing import NoReturn
 
 from fsw.interface.yamlconfig import ConfigError
 from tools.commands.errors import UsageError
+from tools.commands.outputs import write_error_line
 
 #: Subcommand modules, in the order ``navbank --help`` lists them.
 COMMANDS = (
@@ -53,7 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(module.NAME, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP),
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+        p.set_defaults(_run=module.run, _name=module.NAME)
     return parser
 
 
@@ -66,15 +67,20 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args._run(args) or 0)
     except (ConfigError, UsageError) as exc:
-        print(f"navbank {args.command}: {exc}" if isinstance(exc, UsageError) else str(exc), file=sys.stderr)
+        print(f"navbank {args._name}: {exc}" if isinstance(exc, UsageError) else str(exc), file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"navbank {args.command}: interrupted", file=sys.stderr)
+        print(f"navbank {args._name}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
         # output piped into e.g. `head`: not an error of ours; silence the flush at exit too
         sys.stdout = open(os.devnull, "w")
         return 0
+    except OSError as exc:  # after BrokenPipeError, one of its kind
+        # a file error no command anticipated (most are named where they happen): still one line
+        # naming the file and the errno, never a traceback
+        print(f"navbank {args._name}: {write_error_line(exc)}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ import fsw.transport as tp
 from fsw.interface.yamlconfig import ConfigError
 from tools.commands.arg_types import run_id_arg
 from tools.commands.common import new_run_id
+from tools.commands.outputs import check_output_file
 from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 
 NAME = "replay"
@@ -76,6 +77,8 @@ def _rerun(args) -> int:
 
     if not (args.tolerance >= 0 and math.isfinite(args.tolerance)):
         return _fail("--tolerance must be >= 0")
+    if args.json:
+        check_output_file(args.json, "--json")  # before the re-run: exit 2 for a file we could not write
     try:
         res = rerun_and_compare(args.mcap, overrides=args.overrides, replacement=args.config, tolerance=args.tolerance)
     except ConfigError:
