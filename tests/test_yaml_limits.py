@@ -175,3 +175,26 @@ def test_campaign_and_detector_files_go_through_the_limits(tmp_path):
 
     with pytest.raises(ConfigError, match="nodes with aliases expanded"):
         load_file(DetectorConfig, bomb)
+
+
+def test_hostile_config_attached_to_an_mcap(tmp_path):
+    """A recorded run's attached configuration is read within the limits: `navbank replay
+    --rerun` refuses it in one line with exit 2; `navbank report` reports without it."""
+    from ground.mcap_io.recorder import McapRecorder
+
+    mcap = tmp_path / "hostile.mcap"
+    with McapRecorder(mcap) as rec:
+        rec.add_attachment("config.yaml", BILLION_LAUGHS.encode(), "application/yaml")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "tools.cli", "replay", str(mcap), "--rerun"], capture_output=True,
+                          text=True, timeout=120, cwd=tmp_path, env=env)
+    print(f"\nreplay --rerun of a hostile attachment: exit {proc.returncode} in {time.perf_counter() - t0:.2f} s")
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [proc.stderr.strip()]
+    assert proc.stderr.startswith(f"{mcap}:config.yaml:") and "nodes with aliases expanded" in proc.stderr
+    pytest.importorskip("matplotlib")
+    proc = subprocess.run([sys.executable, "-m", "tools.cli", "report", str(mcap), "--out", str(tmp_path / "rep")],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
