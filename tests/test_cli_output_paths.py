@@ -172,3 +172,17 @@ def test_last_words_prefer_the_error_line():
         == "OSError: [Errno 5] Input/output error"
     assert last_words(["something", ""]) == "something"
     assert last_words([]) == "no output"
+
+
+def test_disk_full_during_a_campaign_names_the_file_and_errno(work, tmpfs):
+    """8 kB take the campaign's own files but not its first result row (or weights)."""
+    (work / "c.yaml").write_text("name: full\nseeds: {count: 1, base: 1}\nmatrix:\n"
+                                 "  - scenarios: [short.yaml]\n    faults: [none]\n")
+    full = tmpfs("8k")
+    out = full / "o"
+    proc = _navbank("campaign", "c.yaml", "--workers", "1", "--out", str(out), "--quiet", cwd=work, timeout=300)
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"navbank campaign: {out}/"), last
+    assert last.endswith(f"[Errno {errno.ENOSPC}] No space left on device"), last
