@@ -11,9 +11,11 @@ import argparse
 import importlib
 import os
 import sys
+from typing import NoReturn
 
 from fsw.interface.yamlconfig import ConfigError
 from tools.commands.errors import UsageError
+from tools.commands.outputs import write_error_line
 
 #: Subcommand modules, in the order ``navbank --help`` lists them.
 COMMANDS = (
@@ -33,8 +35,16 @@ COMMANDS = (
 )
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (exit code 2), as for a bad configuration
+    file: argparse's default prints the whole usage block before the one line that matters."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="navbank",
         description="Flight-software-in-the-loop simulator for autonomous deep-space navigation "
         "with filter-bank anomaly detection.",
@@ -45,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(module.NAME, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP),
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+        p.set_defaults(_run=module.run, _name=module.NAME)
     return parser
 
 
@@ -58,15 +68,20 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args._run(args) or 0)
     except (ConfigError, UsageError) as exc:
-        print(f"navbank {args.command}: {exc}" if isinstance(exc, UsageError) else str(exc), file=sys.stderr)
+        print(f"navbank {args._name}: {exc}" if isinstance(exc, UsageError) else str(exc), file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"navbank {args.command}: interrupted", file=sys.stderr)
+        print(f"navbank {args._name}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
         # output piped into e.g. `head`: not an error of ours; silence the flush at exit too
         sys.stdout = open(os.devnull, "w")
         return 0
+    except OSError as exc:  # after BrokenPipeError, one of its kind
+        # a file error no command anticipated (most are named where they happen): still one line
+        # naming the file and the errno, never a traceback
+        print(f"navbank {args._name}: {write_error_line(exc)}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -7,7 +7,9 @@ terminals. The launcher gives each a fixed loopback port and connects them as a 
 first, and supervises:
 
 * if a process exits with an error, the others are stopped (SIGTERM, then SIGKILL after a
-  grace period) and the launcher names the process, its exit code and its last words;
+  grace period) and the launcher names the process, its exit code and its last words — its
+  error line (``navbank <command>: …``), kept in memory even when its log file cannot be
+  written (a full disk fills the logs too: the cause must not be lost with them);
 * SIGINT/SIGTERM to the launcher stops all three the same way (the logger finishes its file);
 * a run that does not end within ``timeout_s`` is stopped and reported.
 
@@ -46,17 +48,61 @@ class Child:
     log_path: Path
     tail: list[str] = field(default_factory=list)
     thread: threading.Thread | None = None
+    log_error: str | None = None  # why the log file could not be (fully) written
 
 
 def _pump(child: Child, stream: IO[str], echo: Callable[[str], None] | None) -> None:
-    with open(child.log_path, "w", encoding="utf-8") as log:
-        for line in stream:
-            log.write(line)
-            log.flush()
-            child.tail.append(line.rstrip("\n"))
-            del child.tail[:-20]
-            if echo is not None:
-                echo(line.rstrip("\n"))
+    """Copy the child's output into its log, keep its last lines and echo them. The pipe is read
+    to its end whatever happens to the log: a pump that died on a full disk would leave the
+    child blocked on a full pipe and the launcher with no last words to report."""
+    log: IO[str] | None = None
+    try:
+        log = open(child.log_path, "w", encoding="utf-8")
+    except OSError as exc:
+        child.log_error = _errno_text(exc)
+    for line in stream:
+        child.tail.append(line.rstrip("\n"))
+        del child.tail[:-20]
+        if echo is not None:
+            echo(line.rstrip("\n"))
+        if log is not None:
+            try:
+                log.write(line)
+                log.flush()
+            except OSError as exc:
+                child.log_error = _errno_text(exc)
+                _close_quietly(log)
+                log = None
+    if log is not None:
+        _close_quietly(log)
+
+
+def _errno_text(exc: OSError) -> str:
+    return f"[Errno {exc.errno}] {exc.strerror}" if exc.errno is not None and exc.strerror else str(exc)
+
+
+def _close_quietly(log: IO[str]) -> None:
+    try:
+        log.close()  # flushes what is buffered: may fail the same way
+    except OSError:
+        pass
+
+
+def last_words(tail: list[str]) -> str:
+    """What a failed process said last: its one-line error (``navbank <command>: …``, the form
+    every command gives), or the exception line of a traceback that came after it, else its last
+    non-empty line, else that it said nothing. Lines a library logs on the way out (Zenoh's
+    warnings as the session closes) do not hide the error line."""
+    lines = [ln.rstrip() for ln in tail if ln.strip()]
+    said = max((i for i, ln in enumerate(lines) if ln.startswith("navbank ")), default=-1)
+    trace = max((i for i, ln in enumerate(lines) if ln.startswith("Traceback (most recent call last)")), default=-1)
+    if trace > said:
+        exception = [ln for ln in lines[trace + 1:] if not ln[:1].isspace()]
+        if exception:
+            return exception[-1]
+    if said >= 0:
+        return lines[said]
+    return lines[-1] if lines else "no output"
 
 
 def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[str, str]) -> list[str]:
@@ -121,9 +167,10 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
                 for ch in children:
                     if ch.thread:
                         ch.thread.join(timeout=2)
-                why = next((ln for ln in reversed(c.tail) if ln.strip()), "no output")
+                why = last_words(c.tail)
+                log = f"{c.log_path} (not written: {c.log_error})" if c.log_error else str(c.log_path)
                 raise RunFailed(f"the {c.role} process exited with code {codes[c.role]} ({why}); "
-                                f"the others were stopped. Log: {c.log_path}")
+                                f"the others were stopped. Log: {log}")
             if all(code == 0 for code in codes.values()):
                 break
             if interrupted.is_set():

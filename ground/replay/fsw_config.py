@@ -21,10 +21,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from fsw.config import FswConfig
-from fsw.interface.yamlconfig import ConfigError, load_data, parse_yaml
+from fsw.interface.yamlconfig import ConfigError, load_data, parse_yaml, read_config_text
 
 _STEP = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
 SCENARIO_KEYS = ("name", "description", "seed", "sim", "fsw")
@@ -65,10 +63,11 @@ def parse_override(text: str) -> tuple[list[str | int], Any]:
             raise ValueError(f"--set {text!r}: cannot read key {part!r}")
     if not steps or steps[0] != "fsw" or len(steps) < 2:
         raise ValueError(f"--set {text!r}: the path must start with fsw. (only the FSW is re-run)")
+    # the value goes through the same bounded parser as every configuration file
     try:
-        value = yaml.safe_load(value_text) if value_text.strip() else ""
-    except yaml.YAMLError:
-        raise ValueError(f"--set {text!r}: the value is not valid YAML") from None
+        value = parse_yaml(value_text, f"--set {text!r}")[0] if value_text.strip() else ""
+    except ConfigError as exc:
+        raise ValueError(f"--set {text!r}: the value is not valid YAML ({exc.expected}, got {exc.got})") from None
     return steps[1:], value
 
 
@@ -112,10 +111,7 @@ def load_fsw_config(
     label = file
     if replacement is not None:
         rpath = Path(replacement)
-        try:
-            rtext = rpath.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise ConfigError(str(rpath), None, "", "a readable YAML file", exc.__class__.__name__) from None
+        rtext = read_config_text(rpath)
         rdata, rlines = parse_yaml(rtext, str(rpath))
         if isinstance(rdata, dict) and any(k in rdata for k in SCENARIO_KEYS):
             new, new_lines = fsw_section(rdata, rlines, str(rpath))

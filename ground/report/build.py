@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+from fsw.interface.yamlconfig import ConfigError, read_config_text
 from ground.report import campaign_data as C
 from ground.report.campaign_plots import write_campaign_figures
 from ground.report.figure import figure_class
@@ -82,8 +83,8 @@ def run_config_groups(mcap_path: str | Path) -> dict[str, dict[str, tuple[str, .
     beside = p.parent / RUN_CONFIG
     if beside.is_file() and (p.name == RUN_MCAP or not (p.parent / RUN_MCAP).exists()):
         try:
-            return hierarchy_groups_from_config(beside.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError):
+            return hierarchy_groups_from_config(read_config_text(beside))
+        except ConfigError:
             pass
     from ground.mcap_io.reader import read_attachments
 

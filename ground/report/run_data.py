@@ -285,11 +285,12 @@ def hierarchy_groups_from_config(config: str | Mapping[str, Any] | None) -> dict
     Networks without banks and anything unreadable are left out (the weights then speak for
     themselves), so a damaged or foreign file never stops a report."""
     if isinstance(config, str):
-        import yaml
+        # the text may come from a recorded MCAP: hostile input, parsed within the loader's limits
+        from fsw.interface.yamlconfig import ConfigError, parse_yaml
 
         try:
-            config = yaml.safe_load(config)
-        except yaml.YAMLError:
+            config = parse_yaml(config, "config.yaml")[0]
+        except ConfigError:
             return {}
     fsw = config.get("fsw") if isinstance(config, Mapping) else None
     gating = fsw.get("gating") if isinstance(fsw, Mapping) else None

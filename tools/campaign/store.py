@@ -115,6 +115,13 @@ def repair(path: str | Path) -> int:
         return size - keep
 
 
+def _named(exc: OSError, path: Path) -> OSError:
+    """``exc`` with the file it happened on, if it did not say (errors from ``write``/``fsync``)."""
+    if exc.filename is not None or exc.errno is None:
+        return exc
+    return type(exc)(exc.errno, exc.strerror, str(path))
+
+
 class RunStore:
     """Append-only writer of one campaign directory."""
 
@@ -136,10 +143,14 @@ class RunStore:
             raise RuntimeError("RunStore.append before open")
         data = encode_row(row)
         view = memoryview(data)
-        while view:
-            n = os.write(self._fd, view)
-            view = view[n:]
-        os.fsync(self._fd)
+        try:
+            while view:
+                n = os.write(self._fd, view)
+                view = view[n:]
+            os.fsync(self._fd)
+        except OSError as exc:
+            # a write on a descriptor names no file; a full disk must say which one it was
+            raise _named(exc, self.path) from None
 
     def save_weights(self, run_id: str, histories: dict[str, RunWeights]) -> list[Path]:
         """Store each network's weight history as ``weights/<network>/<run_id>.npz`` (atomic)."""
@@ -149,9 +160,12 @@ class RunStore:
             wdir.mkdir(parents=True, exist_ok=True)
             final = wdir / f"{run_id}.npz"
             tmp = wdir / f".{run_id}.tmp.npz"
-            history.save(tmp)
-            with open(tmp, "rb") as fh:
-                os.fsync(fh.fileno())
+            try:
+                history.save(tmp)
+                with open(tmp, "rb") as fh:
+                    os.fsync(fh.fileno())
+            except OSError as exc:
+                raise _named(exc, tmp) from None
             os.replace(tmp, final)
             paths.append(final)
         return paths

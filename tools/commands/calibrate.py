@@ -48,6 +48,7 @@ from tools.campaign.spec import CampaignConfig, FaultCase, LoadedCampaign, Matri
 from tools.campaign.store import has_weights, load_weights, read_rows
 from tools.commands.campaign import executor_factory
 from tools.commands.errors import UsageError
+from tools.commands.outputs import check_output_dir, check_output_file
 from tools.scenario import ScenarioConfig, load_scenario
 
 NAME = "calibrate"
@@ -183,6 +184,15 @@ def run(args) -> int:
     plan = expand(loaded)
     label = "+".join(networks)
     runs_dir = Path(args.runs_dir) if args.runs_dir else Path(f"calibrate-{base.name}-{label}")
+    # every output proven writable before the nominal runs (exit 2 otherwise); the runs
+    # directory, often the default one, last: a bad option then leaves nothing behind
+    if args.out_dir:
+        check_output_dir(args.out_dir, "--out-dir")
+    if args.out:
+        check_output_file(args.out)
+    if args.write_scenario:
+        check_output_file(args.write_scenario, "--write-scenario")
+    check_output_dir(runs_dir, "--runs-dir")
     outcome = run_campaign(plan, runs_dir, executor_factory(args), quiet=args.quiet)
     if outcome.interrupted:
         print("navbank calibrate: interrupted; nothing written (run the same command again to resume)", file=sys.stderr)

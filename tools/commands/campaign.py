@@ -13,6 +13,7 @@ from tools.campaign.spec import builtin_names, load_campaign
 from tools.campaign.stats import compute_directory, write_outputs
 from tools.campaign.store import read_rows
 from tools.commands.errors import UsageError
+from tools.commands.outputs import check_output_dir
 
 NAME = "campaign"
 HELP = "run a Monte Carlo fault-injection campaign (scenarios x faults x gating networks x seeds)"
@@ -76,6 +77,7 @@ def run(args) -> int:
         d = Path(args.stats_only)
         if not (d / "runs.jsonl").exists():
             raise UsageError(f"{d}: no runs.jsonl (not a campaign directory)")
+        check_output_dir(d, "--stats-only")  # summary.json and report.md are written into it
         return _stats(d)
     if not args.campaign:
         return _list()
@@ -95,7 +97,7 @@ def run(args) -> int:
             print(f"{cell.key}: {n} runs, {left} to do")
         print(f"{len(plan.tasks)} runs in {len(plan.cells)} cells; {len(todo)} to do into {out}")
         return 0
-    out.mkdir(parents=True, exist_ok=True)
+    check_output_dir(out)  # before any run: exit 2 for a directory we could not fill
     (out / "campaign.yaml").write_text(loaded.text, encoding="utf-8")
     outcome = run_campaign(plan, out, executor_factory(args), rerun_failed=args.rerun_failed, quiet=args.quiet)
     summary = compute_directory(out)

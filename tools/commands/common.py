@@ -6,7 +6,6 @@ import sys
 import time
 import uuid
 
-from fsw.interface import topics
 from tools.commands.errors import UsageError
 from tools.scenario import ScenarioConfig, load_scenario, with_fault
 
@@ -30,13 +29,6 @@ def scenario_from_args(args) -> ScenarioConfig:
 
 def new_run_id() -> str:
     return time.strftime("%Y%m%d-%H%M%S") + "-" + uuid.uuid4().hex[:6]
-
-
-def run_id_arg(value: str) -> str:
-    try:
-        return topics.check_run_id(value)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
 
 
 class ProgressBar:

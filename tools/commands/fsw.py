@@ -7,7 +7,8 @@ import time
 
 import fsw.transport as tp
 from fsw.app import run_fsw, stderr_progress
-from tools.commands.common import add_scenario_arguments, run_id_arg, scenario_from_args
+from tools.commands.arg_types import run_id_arg
+from tools.commands.common import add_scenario_arguments, scenario_from_args
 from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 from tools.scenario import resolve
 

@@ -7,6 +7,8 @@ import time
 
 from fsw.transport import TransportError
 from ground import logger
+from tools.commands.arg_types import run_id_arg
+from tools.commands.outputs import check_output_file, write_error_line
 from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 
 NAME = "ground"
@@ -20,11 +22,12 @@ def add_arguments(p) -> None:
     sub = p.add_subparsers(dest="ground_command", metavar="TOOL", required=True)
     log = sub.add_parser("log", help="record a run to one MCAP file", description=logger.__doc__)
     _add_log_arguments(log)
+    log.set_defaults(_name="ground log")  # how its errors are signed
 
 
 def _add_log_arguments(parser) -> None:
     """Options of ``navbank ground log``."""
-    parser.add_argument("--run-id", required=True, help="run to record (Zenoh keys navbank/<run-id>/**)")
+    parser.add_argument("--run-id", type=run_id_arg, required=True, metavar="ID", help="run to record (Zenoh keys navbank/<run-id>/**)")
     parser.add_argument("--out", required=True, metavar="FILE", help="MCAP file to write")
     parser.add_argument("--producers", default="sim,fsw", metavar="LIST",
                         help="comma-separated processes whose end-of-run ends the recording (default sim,fsw)")
@@ -39,6 +42,7 @@ def _add_log_arguments(parser) -> None:
 
 def _log(args) -> int:
     """Run ``navbank ground log``; 0 on success, 1 if the network or the file failed."""
+    check_output_file(args.out)  # before subscribing: exit 2 for a file we could not write
     try:
         cfg = transport_config_from_args(args)
         producers = tuple(p.strip() for p in args.producers.split(",") if p.strip())
@@ -53,7 +57,12 @@ def _log(args) -> int:
             attachments=args.attach,
             flush_interval_s=args.flush_interval,
         )
-    except (TransportError, ValueError, OSError) as exc:
+    except OSError as exc:
+        # the only file the logger writes is --out; an error from write() or flush() carries no
+        # file name, so name it here (an attachment that cannot be read names itself)
+        print(f"navbank ground log: {write_error_line(exc, args.out)}", file=sys.stderr)
+        return 1
+    except (TransportError, ValueError) as exc:
         print(f"navbank ground log: {exc}", file=sys.stderr)
         return 1
     return 0
@@ -62,6 +71,7 @@ def _log(args) -> int:
 def run(args) -> int:
     if args.ground_command == "log":
         rc = _log(args)
-        print(f"ground log: process CPU {time.process_time():.1f} s", file=sys.stderr)
+        if rc == 0:  # after an error its line stays the last one (the launcher shows the last line)
+            print(f"ground log: process CPU {time.process_time():.1f} s", file=sys.stderr)
         return rc
     return 2

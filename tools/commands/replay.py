@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
 
 import fsw.transport as tp
-from fsw.interface import topics
 from fsw.interface.yamlconfig import ConfigError
+from tools.commands.arg_types import run_id_arg
 from tools.commands.common import new_run_id
+from tools.commands.outputs import check_output_file
 from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 
 NAME = "replay"
@@ -41,13 +41,6 @@ DESCRIPTION = """Two ways to replay a run recorded by `navbank run` / `navbank g
       --set fsw.gating[0].sigma_w=0.1."""
 
 
-def _run_id(value: str) -> str:
-    try:
-        return topics.check_run_id(value)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
 def _fail(message: str, code: int = 2) -> int:
     print(f"navbank replay: {message}", file=sys.stderr)
     return code
@@ -56,7 +49,7 @@ def _fail(message: str, code: int = 2) -> int:
 def add_arguments(p) -> None:
     p.add_argument("mcap", metavar="RUN.mcap", help="recorded run (e.g. runs/<id>/run.mcap)")
     g = p.add_argument_group("republish over Zenoh (default)")
-    g.add_argument("--run-id", type=_run_id, default=None, metavar="ID", help="run id to publish under (default: a new one)")
+    g.add_argument("--run-id", type=run_id_arg, default=None, metavar="ID", help="run id to publish under (default: a new one)")
     g.add_argument("--rate", type=float, default=1.0, metavar="X",
                    help="speed-up of the recorded timing (default 1: real time; 0: as fast as possible)")
     g.add_argument("--fast", action="store_true", help="as fast as possible (same as --rate 0)")
@@ -84,6 +77,8 @@ def _rerun(args) -> int:
 
     if not (args.tolerance >= 0 and math.isfinite(args.tolerance)):
         return _fail("--tolerance must be >= 0")
+    if args.json:
+        check_output_file(args.json, "--json")  # before the re-run: exit 2 for a file we could not write
     try:
         res = rerun_and_compare(args.mcap, overrides=args.overrides, replacement=args.config, tolerance=args.tolerance)
     except ConfigError:

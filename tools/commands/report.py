@@ -5,9 +5,10 @@ from __future__ import annotations
 import sys
 
 from ground.mcap_io.reader import McapReadError
-from ground.report.build import ReportInputError, report
+from ground.report.build import ReportInputError, classify, report
 from ground.report.campaign_data import CampaignReadError
-from ground.report.figure import PlottingUnavailable
+from ground.report.figure import PlottingUnavailable, figure_class
+from tools.commands.outputs import check_output_dir
 
 NAME = "report"
 HELP = "plot a run (MCAP file or run directory) or a campaign directory, with a Markdown summary"
@@ -31,6 +32,11 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     try:
+        # what is to be reported and whether it can be drawn are known before the output
+        # directory is made and proven writable (exit 2 otherwise), and that before any figure
+        what = classify(args.path)
+        figure_class()
+        check_output_dir(args.out if args.out is not None else what.default_out)
         paths = report(args.path, args.out)
     except PlottingUnavailable as exc:
         print(f"navbank report: {exc}", file=sys.stderr)

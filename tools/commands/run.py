@@ -9,7 +9,9 @@ import time
 from pathlib import Path
 
 from tools.commands.errors import UsageError
-from tools.commands.common import add_scenario_arguments, new_run_id, run_id_arg, scenario_from_args
+from tools.commands.arg_types import run_id_arg
+from tools.commands.common import add_scenario_arguments, new_run_id, scenario_from_args
+from tools.commands.outputs import check_output_dir, write_error_line
 from tools.launcher import RunFailed, launch, write_summary
 from tools.scenario import ScenarioConfig, resolve
 
@@ -68,6 +70,7 @@ def run(args) -> int:
     cfg, seed = resolve(cfg, args.seed)
     run_id = args.run_id or new_run_id()
     out = Path(args.out or Path("runs") / run_id)
+    check_output_dir(out)  # before anything starts: exit 2 for a directory we could not fill
     filters = ", ".join(f.name for f in cfg.fsw.bank.filters)
     print(f"navbank run {run_id}: scenario {cfg.name}, seed {seed}, filters {filters}; output {out}/", file=sys.stderr)
     t0 = time.perf_counter()
@@ -76,6 +79,9 @@ def run(args) -> int:
         launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo)
     except RunFailed as exc:
         print(f"navbank run: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:  # the configuration file, written first (e.g. the disk filled up meanwhile)
+        print(f"navbank run: {write_error_line(exc, out / 'config.yaml')}", file=sys.stderr)
         return 1
     wall = time.perf_counter() - t0
     # every topic but the measurements themselves (the simulator's end-of-run status counts them)
@@ -91,7 +97,11 @@ def run(args) -> int:
     summary = summarize(messages, scenario=cfg.name, seed=seed, fault=args.fault, t0=t_start, wall_time_s=wall)
     summary = dataclasses.replace(summary, run_id=run_id,
                                   files=RunFiles(mcap=str(out / "run.mcap"), config=str(out / "config.yaml")))
-    path = write_summary(summary.to_json(), out)
+    try:
+        path = write_summary(summary.to_json(), out)
+    except OSError as exc:
+        print(f"navbank run: {write_error_line(exc, out / 'summary.json')}", file=sys.stderr)
+        return 1
     print(describe(summary))
     print(f"files: {out / 'run.mcap'}  {path}  {out / 'config.yaml'}")
     return 0

@@ -8,7 +8,9 @@ import time
 import fsw.transport as tp
 from sim.stream import generate
 from tools.commands.errors import UsageError
-from tools.commands.common import ProgressBar, add_scenario_arguments, run_id_arg, scenario_from_args
+from tools.commands.arg_types import run_id_arg
+from tools.commands.common import ProgressBar, add_scenario_arguments, scenario_from_args
+from tools.commands.outputs import check_output_file, write_error_line
 from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
 from tools.scenario import resolve
 
@@ -57,6 +59,7 @@ def run(args) -> int:
     for path in args.out:
         if not path.endswith((".jsonl", ".mcap")):
             raise UsageError(f"--out {path}: expected a .jsonl or .mcap file name")
+        check_output_file(path)  # before the simulation: exit 2 for a file we could not write
     cfg, seed = resolve(scenario_from_args(args), args.seed)
     t0 = time.perf_counter()
     run_ = generate(cfg.sim, seed=seed)
@@ -65,7 +68,11 @@ def run(args) -> int:
           f"{len(run_.truth)} truth, {len(run_.fault_events)} fault events in {time.perf_counter() - t0:.1f} s",
           file=sys.stderr)
     for path in args.out:
-        n = _write(run_, path)
+        try:
+            n = _write(run_, path)
+        except OSError as exc:  # e.g. the disk filled up while writing; a write error has no file name
+            print(f"navbank sim: {write_error_line(exc, path)}", file=sys.stderr)
+            return 1
         print(f"sim: wrote {n} messages to {path}", file=sys.stderr)
     if args.run_id is not None:
         from sim.app import publish_run

@@ -19,7 +19,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ground.report.figure import PlottingUnavailable
+from ground.report.figure import PlottingUnavailable, figure_class
+from tools.commands.outputs import check_output_dir
 
 NAME = "validation-report"
 HELP = "write the validation report (papers' findings vs navbank) from the validation campaigns"
@@ -37,6 +38,12 @@ def run(args) -> int:
     from tools.validation.document import CAMPAIGNS, build
 
     camp = Path(args.campaigns)
+    try:
+        figure_class()  # without matplotlib nothing is made, not even the output directory
+    except PlottingUnavailable as exc:
+        print(f"navbank validation-report: {exc}", file=sys.stderr)
+        return 2
+    check_output_dir(args.out)  # before the cruise run and the figures: exit 2 for a directory we could not fill
     missing = [n for n in CAMPAIGNS if not (camp / n / "runs.jsonl").is_file()]
     for n in missing:
         print(f"navbank validation-report: no campaign {camp / n} (run: navbank campaign {n} --out {camp / n}); "
