@@ -10,11 +10,13 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
 from typing import NoReturn
 
 from fsw.interface.yamlconfig import ConfigError
 from tools.commands.errors import UsageError
+from tools.supervision import watch_supervisor_from_env
 from tools.commands.outputs import write_error_line
 
 #: Subcommand modules, in the order ``navbank --help`` lists them.
@@ -60,6 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    watch_supervisor_from_env()
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
@@ -74,9 +77,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"navbank {args._name}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
-        # output piped into e.g. `head`: not an error of ours; silence the flush at exit too
+        # our output's reader went away (e.g. `| head`, or a killed launcher): the work may not
+        # be done, so not a success — the shell's code for a broken pipe; silence the flush at
+        # exit too
         sys.stdout = open(os.devnull, "w")
-        return 0
+        return 128 + signal.SIGPIPE
     except OSError as exc:  # after BrokenPipeError, one of its kind
         # a file error no command anticipated (most are named where they happen): still one line
         # naming the file and the errno, never a traceback

@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import IO, Callable
 
 from fsw.transport import free_tcp_ports
+from tools.supervision import supervisor_env
 from tools.scenario import ScenarioConfig, to_yaml
 
 ROLES = ("ground", "fsw", "sim")  # start order: each connects to the ones before it
@@ -143,7 +144,7 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
     cfg_path.write_text(to_yaml(cfg, complete=True), encoding="utf-8")
     ports = free_tcp_ports(len(ROLES))
     eps = {r: f"tcp/127.0.0.1:{p}" for r, p in zip(ROLES, ports)}
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env = dict(os.environ, PYTHONUNBUFFERED="1", **supervisor_env())
     children: list[Child] = []
     interrupted = threading.Event()
     old = {s: signal.signal(s, lambda *_: interrupted.set()) for s in (signal.SIGINT, signal.SIGTERM)}

@@ -9,7 +9,7 @@ back, strictly.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 from fsw.interface import typed
 from fsw.interface.typed import spec
@@ -58,6 +58,10 @@ class MeasurementCounts(JsonRecord):
     lost: int = spec(doc="measurements lost on the way")
     duplicates: int = spec(doc="duplicates the FSW dropped")
     reordered: int = spec(doc="measurements that arrived out of order")
+
+
+#: How a ``navbank run`` ended.
+RunEnding = Literal["complete", "interrupted", "failed"]
 
 
 @dataclass(frozen=True)
@@ -187,8 +191,8 @@ class RunSummary(JsonRecord):
     """Every number ``navbank run`` prints and writes to ``summary.json``."""
 
     # monitors: campaign runs with monitors; run_id and files: summaries of ``navbank run``;
-    # commands: runs that were commanded
-    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"monitors", "run_id", "files", "commands"})
+    # commands: runs that were commanded; status, reason: summaries of ``navbank run``
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"monitors", "run_id", "files", "commands", "status", "reason"})
 
     scenario: str = spec(doc="scenario name")
     seed: int = spec(doc="random seed of the run")
@@ -207,3 +211,6 @@ class RunSummary(JsonRecord):
     run_id: str | None = spec(None, doc="the run's id")
     files: RunFiles | None = spec(None, doc="the run's files")
     commands: tuple[CommandEntry, ...] | None = spec(None, doc="telecommands the FSW served, in order")
+    status: RunEnding | None = spec(
+        None, doc="how the run ended: complete; interrupted (SIGINT/SIGTERM); failed (a process failed, time ran out)")
+    reason: str | None = spec(None, doc="why it did not complete, in one line")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING, Any
 import sys
 import time
 from pathlib import Path
@@ -14,6 +14,9 @@ from tools.commands.common import add_scenario_arguments, new_run_id, scenario_f
 from tools.commands.outputs import check_output_dir, write_error_line
 from tools.launcher import RunFailed, launch, write_summary
 from tools.scenario import ScenarioConfig, resolve
+
+if TYPE_CHECKING:
+    from ground.report.summary_types import RunEnding, RunSummary
 
 NAME = "run"
 HELP = "run simulator + FSW + ground logger as separate processes over Zenoh and report"
@@ -60,10 +63,42 @@ def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, c
     return dataclasses.replace(cfg, fsw=dataclasses.replace(cfg.fsw, budget=dataclasses.replace(b, **changes)))
 
 
-def run(args) -> int:
-    from ground.mcap_io.reader import read_messages
+def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str | None, wall: float,
+             status: RunEnding, reason: str | None = None) -> RunSummary | dict[str, Any]:
+    """The run's summary from what was recorded. A logger that died leaves run.mcap without its
+    footer: what it holds is first rewritten into run.recovered.mcap. If nothing usable was
+    recorded, a summary of just how the run ended."""
+    from ground.mcap_io.reader import is_complete, read_messages, recover
+    from ground.mcap_io.reader import summary as mcap_counts
     from ground.report.run_summary import summarize
     from ground.report.summary_types import RunFiles
+
+    mcap = out / "run.mcap"
+    try:
+        if not is_complete(mcap):
+            fixed = out / "run.recovered.mcap"
+            recover(mcap, fixed)
+            print(f"navbank run: {mcap} was left incomplete; what it held is in {fixed}", file=sys.stderr)
+            mcap = fixed
+        # every topic but the measurements themselves (the simulator's end-of-run status counts them)
+        wanted = [t for t in mcap_counts(mcap) if t != "/sim/measurements"]
+        messages = [(rec.topic, rec.message) for rec in read_messages(mcap, topics=wanted) if rec.message is not None]
+        init = cfg.fsw.initial_state
+        if init is None:
+            raise UsageError("the scenario resolved without an a-priori initial state")
+        summary = summarize(messages, scenario=cfg.name, seed=seed, fault=fault, t0=init.t_s, wall_time_s=wall)
+    except UsageError:
+        raise
+    except Exception as exc:  # an interrupted or failed run may have recorded too little to summarise
+        if status == "complete":
+            raise
+        return {"run_id": run_id, "status": status, "reason": reason,
+                "summary_error": f"{type(exc).__name__}: {exc}"[:500], "files": {"mcap": str(out / "run.mcap")}}
+    return dataclasses.replace(summary, run_id=run_id, status=status, reason=reason,
+                               files=RunFiles(mcap=str(mcap), config=str(out / "config.yaml")))
+
+
+def run(args) -> int:
     from tools.summary import describe
 
     cfg = with_budget(scenario_from_args(args), args.budget_mode, args.budget, args.cpu_scale)
@@ -75,33 +110,36 @@ def run(args) -> int:
     print(f"navbank run {run_id}: scenario {cfg.name}, seed {seed}, filters {filters}; output {out}/", file=sys.stderr)
     t0 = time.perf_counter()
     echo = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    status: RunEnding = "complete"
+    reason: str | None = None
+    code = 0
     try:
         launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo)
     except RunFailed as exc:
+        status, reason, code = "failed", str(exc), 1
         print(f"navbank run: {exc}", file=sys.stderr)
-        return 1
+    except KeyboardInterrupt:
+        # the processes were stopped in order (the logger finished its file): say what was done
+        status, reason, code = "interrupted", "stopped by SIGINT/SIGTERM", 130
+        print("navbank run: interrupted; the processes were stopped", file=sys.stderr)
     except OSError as exc:  # the configuration file, written first (e.g. the disk filled up meanwhile)
         print(f"navbank run: {write_error_line(exc, out / 'config.yaml')}", file=sys.stderr)
         return 1
     wall = time.perf_counter() - t0
-    # every topic but the measurements themselves (the simulator's end-of-run status counts them)
-    from ground.mcap_io.reader import summary as mcap_counts
-
-    wanted = [t for t in mcap_counts(out / "run.mcap") if t != "/sim/measurements"]
-    messages = [(rec.topic, rec.message) for rec in read_messages(out / "run.mcap", topics=wanted)
-                if rec.message is not None]
-    init = cfg.fsw.initial_state
-    if init is None:
-        raise UsageError("the scenario resolved without an a-priori initial state")
-    t_start = init.t_s
-    summary = summarize(messages, scenario=cfg.name, seed=seed, fault=args.fault, t0=t_start, wall_time_s=wall)
-    summary = dataclasses.replace(summary, run_id=run_id,
-                                  files=RunFiles(mcap=str(out / "run.mcap"), config=str(out / "config.yaml")))
+    summary = _summary(cfg, seed, run_id, out, args.fault, wall, status, reason)
     try:
-        path = write_summary(summary.to_json(), out)
+        path = write_summary(summary if isinstance(summary, dict) else summary.to_json(), out)
     except OSError as exc:
-        print(f"navbank run: {write_error_line(exc, out / 'summary.json')}", file=sys.stderr)
-        return 1
+        if code == 0:
+            print(f"navbank run: {write_error_line(exc, out / 'summary.json')}", file=sys.stderr)
+            return 1
+        return code  # the line that said why the run failed also explains this one (e.g. a full disk)
+    if isinstance(summary, dict):
+        print(f"navbank run: {status}; nothing recorded could be summarised ({summary['summary_error']}); see {path}",
+              file=sys.stderr)
+        return code
     print(describe(summary))
-    print(f"files: {out / 'run.mcap'}  {path}  {out / 'config.yaml'}")
-    return 0
+    if status != "complete":
+        print(f"status: {status} ({reason})")
+    print(f"files: {summary.files.mcap if summary.files else out / 'run.mcap'}  {path}  {out / 'config.yaml'}")
+    return code
