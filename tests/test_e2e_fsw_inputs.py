@@ -48,6 +48,22 @@ def _measurement_json(msg: m.Measurement, **changes) -> bytes:
     return json.dumps(data).encode()
 
 
+def _end_stream(session, pub, status_pub, last: m.Measurement) -> None:
+    """What the simulator does at the end: announce the counts, drain into the FSW, close."""
+    end = m.RunStatus(t_s=last.t_s, timestamp=last.timestamp, run_id="inputs", source="sim",
+                      state="end-of-run", counts=tp.end_of_run_counts([pub]))
+    status_pub.put(end)
+    assert tp.drain(session, "inputs", end, ["fsw"], timeout_s=60) == {"fsw": True}
+    pub.close()
+    status_pub.close()
+
+
+def _ends_cleanly(proc) -> None:
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err
+
+
 def test_malformed_measurements_and_commands_are_counted_not_fatal(fsw_process):
     proc, path, me = fsw_process
     cfg, seed = resolve(load_scenario(str(path)))
@@ -109,16 +125,8 @@ def test_malformed_measurements_and_commands_are_counted_not_fatal(fsw_process):
         assert after.status["commands_rejected"] == 2  # valid commands that could not be done: -1, unknown filter
         assert after.status["commands_malformed"] == 3  # garbage, unknown command, NaN value
 
-        end = m.RunStatus(t_s=good[-1].t_s, timestamp=good[-1].timestamp, run_id="inputs", source="sim",
-                          state="end-of-run", counts=tp.end_of_run_counts([pub]))
-        status_pub.put(end)
-        done = tp.drain(session, "inputs", end, ["fsw"], timeout_s=60)
-        assert done == {"fsw": True}
-        pub.close()
-        status_pub.close()
-    out, err = proc.communicate(timeout=60)
-    assert proc.returncode == 0, err
-    assert "Traceback" not in err
+        _end_stream(session, pub, status_pub, good[-1])
+    _ends_cleanly(proc)
 
 
 def test_poison_measurements_are_rejected_and_commands_answered_during_a_flood(fsw_process):
@@ -170,15 +178,8 @@ def test_poison_measurements_are_rejected_and_commands_answered_during_a_flood(f
         assert (s.get("rejected_future"), s.get("rejected_sequence_jump"), s["decode_errors"]) == (2, 2, 50)
         assert s["processed"] + s["pending"] == len(good) and s["time_reversed"] == 0 and s["lost"] == 0
 
-        end = m.RunStatus(t_s=good[-1].t_s, timestamp=good[-1].timestamp, run_id="inputs", source="sim",
-                          state="end-of-run", counts=tp.end_of_run_counts([pub]))
-        status_pub.put(end)
-        assert tp.drain(session, "inputs", end, ["fsw"], timeout_s=60) == {"fsw": True}
-        pub.close()
-        status_pub.close()
-    out, err = proc.communicate(timeout=60)
-    assert proc.returncode == 0, err
-    assert "Traceback" not in err
+        _end_stream(session, pub, status_pub, good[-1])
+    _ends_cleanly(proc)
 
 
 def _mutations(base: dict, rng) -> list[bytes]:
@@ -245,12 +246,5 @@ def test_bounded_fuzz_of_the_running_fsw_over_zenoh(fsw_process):
         assert s["processed"] + s["pending"] == len(good)
         assert s["time_reversed"] == 0 and s["lost"] == 0
 
-        end = m.RunStatus(t_s=good[-1].t_s, timestamp=good[-1].timestamp, run_id="inputs", source="sim",
-                          state="end-of-run", counts=tp.end_of_run_counts([pub]))
-        status_pub.put(end)
-        assert tp.drain(session, "inputs", end, ["fsw"], timeout_s=60) == {"fsw": True}
-        pub.close()
-        status_pub.close()
-    out, err = proc.communicate(timeout=60)
-    assert proc.returncode == 0, err
-    assert "Traceback" not in err
+        _end_stream(session, pub, status_pub, good[-1])
+    _ends_cleanly(proc)
