@@ -65,6 +65,8 @@ def run_fsw(
             elif sub.finished([producer]):
                 break
             if life.should_stop():
+                # say how far it got before it goes, so the recording holds the final counters
+                core.stopped(f"stopped ({life.stop_reason()})")
                 raise KeyboardInterrupt
             if idle_timeout_s is not None and now - last_data > idle_timeout_s:
                 raise tp.TransportError(f"no data from {producer} for {idle_timeout_s:g} s")

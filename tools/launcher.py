@@ -10,7 +10,8 @@ first, and supervises:
   grace period) and the launcher names the process, its exit code and its last words — its
   error line (``navbank <command>: …``), kept in memory even when its log file cannot be
   written (a full disk fills the logs too: the cause must not be lost with them);
-* SIGINT/SIGTERM to the launcher stops all three the same way (the logger finishes its file);
+* SIGINT/SIGTERM to the launcher stops all three the same way, producers first (the FSW records its
+  final counters, the logger finishes its file);
 * a run that does not end within ``timeout_s`` is stopped and reported.
 
 On success it reads the MCAP back, computes the summary (``ground.report.run_summary``) and writes
@@ -121,14 +122,21 @@ def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[st
     return [*base, "sim", "--scenario", str(cfg_path), "--run-id", run_id, *net]
 
 
+#: How long a producer (simulator, FSW) may take to stop before it is killed; the logger, stopped
+#: last, gets GRACE_S to finish its file.
+PRODUCER_GRACE_S = 3.0
+
+
 def _stop(children: list[Child]) -> None:
-    for c in children:
+    """Stop the processes in the reverse of their start order — the simulator, then the FSW, the
+    logger last — so the logger still records what the others say as they stop (the FSW's final
+    counters)."""
+    for i, c in enumerate(reversed(children)):
         if c.proc.poll() is None:
             c.proc.send_signal(signal.SIGTERM)
-    deadline = time.monotonic() + GRACE_S
-    for c in children:
+        grace = GRACE_S if i == len(children) - 1 else PRODUCER_GRACE_S
         try:
-            c.proc.wait(timeout=max(deadline - time.monotonic(), 0.1))
+            c.proc.wait(timeout=grace)
         except subprocess.TimeoutExpired:
             c.proc.kill()
             c.proc.wait()

@@ -293,6 +293,15 @@ class FswCore:
     def _emit_status(self, state: RunState, t: float) -> None:
         self._emit(topics.FSW_STATUS, status_message(t, self.run_id, state, self.status_counts()))
 
+    def stopped(self, reason: str) -> m.RunStatus:
+        """Stopped before the end of the stream (a stop request): the status that says so, with
+        the counters as they stand — measurements taken but not yet processed show in
+        ``pending`` and ``backlog`` — emitted and returned. Nothing is drained: a stop request
+        asks for an end now, not after the backlog."""
+        msg = status_message(self._last_t, self.run_id, "error", self.status_counts(), message=reason)
+        self._emit(topics.FSW_STATUS, msg)
+        return msg
+
     # -- telecommands --------------------------------------------------------------------------
     def command(self, tc: m.Telecommand) -> m.TelecommandReply:
         """Carry out a telecommand (see :mod:`fsw.core.commands`); anything that cannot be done
