@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import multiprocessing as mp
-import queue
 import signal
 import subprocess
 import sys
@@ -18,6 +17,7 @@ from fsw import transport as T
 from fsw.interface import messages as m
 from ground.logger import run_logger
 from ground.mcap_io import is_complete, read_messages, recover, summary
+from child_results import collect_results
 
 CTX = mp.get_context("spawn")
 T0 = 1_700_000_000
@@ -79,22 +79,6 @@ def logger_proc(cfg, run: str, path: str, out, ready) -> None:
     out.put(("logger", res))
 
 
-def _collect(out, n: int, procs, timeout_s: float = 90.0) -> dict:
-    """n results from the children, failing at once if one of them dies."""
-    results: dict = {}
-    deadline = time.monotonic() + timeout_s
-    while len(results) < n:
-        assert time.monotonic() < deadline, f"timed out; got {sorted(results)}"
-        try:
-            kind, value = out.get(timeout=0.5)
-            results[kind] = value
-        except queue.Empty:
-            dead = [p.name for p in procs if p.exitcode not in (None, 0)]
-            if dead and out.empty():
-                for p in procs:
-                    p.kill()
-                raise AssertionError(f"{', '.join(dead)} failed")
-    return results
 
 
 def _join(procs, timeout=20):
@@ -117,7 +101,7 @@ def test_logger_records_a_whole_run_and_ends_by_itself(tmp_path):
     sim = CTX.Process(target=sim_proc, args=(cfgs["sim"], run, n, out), name="sim")
     fsw = CTX.Process(target=fsw_proc, args=(cfgs["fsw"], run, 500, out), name="fsw")
     sim.start(), fsw.start()
-    results = _collect(out, 3, [sim, fsw, logger])
+    results = collect_results(out, 3, [sim, fsw, logger])
     _join([sim, fsw, logger])
     assert [p.exitcode for p in (sim, fsw, logger)] == [0, 0, 0]
     assert results["sim"] == {"ground": True, "fsw": True} and results["fsw"] == {"ground": True}

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
-import queue
 import signal
 import threading
 import time
@@ -13,6 +12,7 @@ import pytest
 
 from fsw import transport as T
 from fsw.interface import messages as m, topics
+from child_results import collect_results
 
 RUN = "lifecycle"
 CTX = mp.get_context("spawn")
@@ -65,21 +65,6 @@ def _join(procs, timeout_s: float = 20.0) -> None:
         assert not hung, f"{p.name} did not exit (hang at exit)"
 
 
-def _results(out, n: int, procs, timeout_s: float = 90.0) -> dict:
-    results: dict = {}
-    deadline = time.monotonic() + timeout_s
-    while len(results) < n:
-        assert time.monotonic() < deadline, f"timed out; got {sorted(results)}"
-        try:
-            kind, value = out.get(timeout=0.5)
-            results[kind] = value
-        except queue.Empty:
-            dead = [p.name for p in procs if p.exitcode not in (None, 0)]
-            if dead and out.empty():
-                for p in procs:
-                    p.kill()
-                raise AssertionError(f"{', '.join(dead)} failed")
-    return results
 
 
 def test_producer_and_consumer_end_cleanly_with_every_message_confirmed():
@@ -89,7 +74,7 @@ def test_producer_and_consumer_end_cleanly_with_every_message_confirmed():
     cons = CTX.Process(target=consumer, args=(cfgs["fsw"], out), name="consumer")
     prod = CTX.Process(target=producer, args=(cfgs["sim"], n, out), name="producer")
     cons.start(), prod.start()
-    results = _results(out, 2, [cons, prod])
+    results = collect_results(out, 2, [cons, prod])
     _join([cons, prod])
     assert [p.exitcode for p in (cons, prod)] == [0, 0]
     assert results["sim"] == {"fsw": True}
@@ -127,7 +112,7 @@ def test_a_signal_stops_the_process_restores_handlers_and_closes_without_hanging
         assert ready.wait(30), "the process never entered its lifecycle"
         t0 = time.monotonic()
         os.kill(proc.pid, sig)
-        results = _results(out, 1, [proc], timeout_s=20)
+        results = collect_results(out, 1, [proc], timeout_s=20)
         _join([proc])
     finally:
         if proc.is_alive():
