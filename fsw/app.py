@@ -43,11 +43,16 @@ def run_fsw(
         core = FswCore(config, life.put, run_id=run_id)
         # the FIFO must hold more than the producer's credit window (see CreditWindow)
         sub = life.subscriber(ALLOWED_TOPICS, decode=False, role="fsw", capacity=16384)
-        server = life.command_server(core.command, threaded=False, on_malformed=core.record_malformed_command)
+        server = life.command_server(core.command, threaded=False, on_malformed=core.record_malformed_command,
+                                     on_refused=core.record_refused_command)
         refused = 0
         core.extra_counters = lambda: {
             "refused_topics": refused,
             "transport_gaps": sum(sub.gaps.values()),
+            # authentication refusals (only with the run's key): telecommands, and statuses or
+            # drain queries that would have ended the run
+            "refused_commands": server.refused,
+            "refused_statuses": sum(sub.refused.values()),
         }
         core.start()
         last_data = time.monotonic()

@@ -3,7 +3,8 @@
 Subscribes to ``navbank/<run-id>/**`` and writes each sample as it is taken: ICD topics on
 channels with their JSON Schema, unknown topics on schema-less ``json`` channels (counted), and
 payloads that fail strict decoding on ``/_invalid/<topic>`` channels as raw bytes (counted) —
-nothing delivered is dropped. The logger serves the ``ground`` progress queryable, so producers
+nothing delivered is dropped. With the run's key, a status whose authentication fails (a forged
+end-of-run status) goes to ``/_refused/<topic>`` (counted) and ends nothing. The logger serves the ``ground`` progress queryable, so producers
 can :func:`~fsw.transport.drain` into it before they close.
 
 It stops
@@ -32,7 +33,7 @@ from typing import Any
 import fsw.transport as tp
 from fsw.interface import codec, topics
 from fsw.interface.messages import SCHEMA_VERSION
-from ground.mcap_io.recorder import INVALID_PREFIX, McapRecorder, publish_time_of
+from ground.mcap_io.recorder import INVALID_PREFIX, REFUSED_PREFIX, McapRecorder, publish_time_of
 
 _MEDIA_TYPES = {".yaml": "application/yaml", ".yml": "application/yaml", ".json": "application/json", ".txt": "text/plain"}
 
@@ -48,6 +49,7 @@ class LogResult:
     unknown: dict[str, int] = field(default_factory=dict)  # messages on topics outside the ICD
     invalid: dict[str, int] = field(default_factory=dict)  # payloads that failed strict decoding
     gaps: dict[str, int] = field(default_factory=dict)  # publisher sequence numbers never received
+    refused: dict[str, int] = field(default_factory=dict)  # statuses and drain queries whose authentication failed
     finished: tuple[str, ...] = ()  # producers whose end-of-run was fully recorded
 
     @property
@@ -58,7 +60,8 @@ class LogResult:
         lines = [f"navbank ground log: {self.total} messages -> {self.path} ({self.ended_by}, {self.elapsed_s:.1f} s)"]
         width = max((len(t) for t in self.counts), default=0)
         lines += [f"  {t:<{width}}  {n:>9}" for t, n in sorted(self.counts.items())]
-        for label, table in (("unknown topics", self.unknown), ("invalid payloads", self.invalid), ("gaps (lost)", self.gaps)):
+        for label, table in (("unknown topics", self.unknown), ("invalid payloads", self.invalid), ("gaps (lost)", self.gaps),
+                             ("refused (authentication)", self.refused)):
             if table:
                 lines.append(f"  {label}: " + ", ".join(f"{t}={n}" for t, n in sorted(table.items())))
         if self.finished:
@@ -93,6 +96,9 @@ class _Writer:
         self.rec.write(f"{INVALID_PREFIX}/{got.topic}", got.payload, got.receive_ns, None, got.pub_seq or 0)
 
     def __call__(self, got: tp.Received) -> None:
+        if got.refused:
+            self.rec.write(f"{REFUSED_PREFIX}/{got.topic}", got.payload, got.receive_ns, None, got.pub_seq or 0)
+            return
         try:
             cls = topics.type_of_topic(got.topic)
         except KeyError:
@@ -202,12 +208,14 @@ def run_logger(
                 unknown=write.unknown,
                 invalid=write.invalid,
                 gaps=dict(sub.gaps),
+                refused=dict(sub.refused),
                 finished=finished,
             )
             rec.add_metadata(
                 "navbank.logger",
                 {"ended_by": ended_by, "counts": result.counts, "unknown": result.unknown,
-                 "invalid": result.invalid, "gaps": result.gaps, "finished": list(finished)},
+                 "invalid": result.invalid, "gaps": result.gaps, "refused": result.refused,
+                 "finished": list(finished)},
             )
         if ended_by == "end-of-run":
             life.let_replies_leave()

@@ -14,6 +14,12 @@ first, and supervises:
   final counters, the logger finishes its file);
 * a run that does not end within ``timeout_s`` is stopped and reported.
 
+Unless asked for plain TCP, the run is authenticated: the launcher makes the run's credentials in
+``DIR/credentials`` (a fresh CA, one certificate per role, the HMAC key; ``tools/credentials.py``),
+the mesh links are mutual TLS, and each process gets ``--credentials``. The directory is removed
+when the run ends: its certificates and key are worth nothing to anyone afterwards, and nothing
+keeps private keys lying around.
+
 On success it reads the MCAP back, computes the summary (``ground.report.run_summary``) and writes
 ``DIR/summary.json`` next to ``DIR/run.mcap``, ``DIR/config.yaml`` and one log per process.
 """
@@ -22,6 +28,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -32,6 +39,7 @@ from pathlib import Path
 from typing import IO, Callable
 
 from fsw.transport import free_tcp_ports
+from tools.credentials import make_credentials
 from tools.supervision import supervisor_env
 from tools.scenario import ScenarioConfig, to_yaml
 
@@ -107,11 +115,12 @@ def last_words(tail: list[str]) -> str:
     return lines[-1] if lines else "no output"
 
 
-def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[str, str]) -> list[str]:
+def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[str, str],
+             credentials: Path | None = None) -> list[str]:
     base = [sys.executable, "-m", "tools.cli"]
     before = [eps[r] for r in ROLES[: ROLES.index(role)]]
     connect = [a for ep in before for a in ("--connect", ep)]
-    net = ["--listen", eps[role], *connect]
+    net = ["--listen", eps[role], *connect, *(["--credentials", str(credentials)] if credentials else [])]
     if role == "ground":
         # The producers are our own processes, which encode from the ICD types: strict re-validation
         # of every message in the logger (~90 µs each) only slowed the whole run down.
@@ -143,22 +152,36 @@ def _stop(children: list[Child]) -> None:
 
 
 def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float = 3600.0,
-           echo: Callable[[str], None] | None = None) -> dict[str, int]:
+           echo: Callable[[str], None] | None = None, authenticated: bool = True) -> dict[str, int]:
     """Run the three processes for ``cfg`` (already resolved: seed and initial state fixed).
 
     Returns the exit code per role; raises :class:`RunFailed` if any failed or time ran out."""
     out_dir.mkdir(parents=True, exist_ok=True)
     cfg_path = out_dir / "config.yaml"
     cfg_path.write_text(to_yaml(cfg, complete=True), encoding="utf-8")
+    credentials = out_dir / "credentials" if authenticated else None
+    if credentials is not None:
+        shutil.rmtree(credentials, ignore_errors=True)  # a previous run's, worthless now
+        make_credentials(credentials)
+    try:
+        return _launch(cfg_path, run_id, out_dir, timeout_s, echo, credentials)
+    finally:
+        if credentials is not None:
+            shutil.rmtree(credentials, ignore_errors=True)
+
+
+def _launch(cfg_path: Path, run_id: str, out_dir: Path, timeout_s: float, echo: Callable[[str], None] | None,
+            credentials: Path | None) -> dict[str, int]:
     ports = free_tcp_ports(len(ROLES))
-    eps = {r: f"tcp/127.0.0.1:{p}" for r, p in zip(ROLES, ports)}
+    proto = "tcp" if credentials is None else "tls"
+    eps = {r: f"{proto}/127.0.0.1:{p}" for r, p in zip(ROLES, ports)}
     env = dict(os.environ, PYTHONUNBUFFERED="1", **supervisor_env())
     children: list[Child] = []
     interrupted = threading.Event()
     old = {s: signal.signal(s, lambda *_: interrupted.set()) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         for role in ROLES:
-            proc = subprocess.Popen(_command(role, cfg_path, run_id, out_dir, eps), stdout=subprocess.PIPE,
+            proc = subprocess.Popen(_command(role, cfg_path, run_id, out_dir, eps, credentials), stdout=subprocess.PIPE,
                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True, env=env,
                                     start_new_session=True)
             child = Child(role, proc, out_dir / f"{role}.log")

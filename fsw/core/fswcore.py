@@ -321,6 +321,13 @@ class FswCore:
             return reply
         return self.command(tc)
 
+    def record_refused_command(self, tc: m.Telecommand | None, payload: bytes | str, reply: m.TelecommandReply,
+                               reason: str) -> None:
+        """Publish the record of a telecommand the transport refused before the core saw it (its
+        authentication failed): it changed nothing, and the transport counts it."""
+        self._emit(topics.FSW_COMMANDS, command_record(self._last_t, self.taken, tc, reply, payload, self.finished,
+                                                       refused=reason))
+
     def record_malformed_command(self, payload: bytes | str, reply: m.TelecommandReply) -> None:
         """Count a telecommand payload that did not decode and publish its record (it changed
         nothing; a transport that answers such payloads itself reports them here)."""

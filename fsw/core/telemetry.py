@@ -110,15 +110,16 @@ class DeclarationClock:
 
 
 def command_record(t: float, taken: int, tc: m.Telecommand | None, reply: m.TelecommandReply,
-                   payload: bytes | str = b"", ended: bool = False) -> m.CommandRecord:
+                   payload: bytes | str = b"", ended: bool = False, refused: str = "") -> m.CommandRecord:
     """The record of one served telecommand; ``payload`` (kept only when ``tc`` is None: it did
-    not decode) is stored as text, truncated to what the ICD allows."""
+    not decode) is stored as text, truncated to what the ICD allows. ``refused`` says why a
+    command was refused unexecuted (its authentication)."""
     text = ""
     if tc is None:
         raw = payload if isinstance(payload, str) else bytes(payload).decode("utf-8", "replace")
         text = raw[: m.TEXT_CHARS]
     return m.CommandRecord(t_s=float(t), timestamp=stamp(t), taken=int(taken), telecommand=tc, reply=reply, payload=text,
-                           ended=ended)
+                           ended=ended, refused=refused[: m.TEXT_CHARS])
 
 
 def anomaly_message(state: AnomalyState, t: float, clock: DeclarationClock) -> m.AnomalyReport:

@@ -215,6 +215,15 @@ class BudgetReport:
 
 
 @dataclass(frozen=True, slots=True)
+class AuthTag:
+    """Proof that a message comes from a holder of the run's key: HMAC-SHA256 (RFC 2104) over the
+    message's canonical bytes and a fresh nonce (:mod:`fsw.interface.auth` defines both)."""
+
+    nonce: str = spec(max_length=64, doc="random hex chosen by the signer; a telecommand's nonce is accepted once")
+    mac: str = spec(max_length=64, doc="HMAC-SHA256 in hex over the schema name, the nonce and the message without this tag")
+
+
+@dataclass(frozen=True, slots=True)
 class Telecommand:
     """A command to the FSW (ground → fsw, as a Zenoh query payload)."""
 
@@ -224,6 +233,7 @@ class Telecommand:
     filter: str | None = spec(None, max_length=NAME_CHARS, doc="filter the command applies to (enable-filter, disable-filter)")
     param: str | None = spec(None, max_length=NAME_CHARS, doc="parameter name (set-param), e.g. 'sigma_w', 'batch_size', 'eta'")
     value: float | None = spec(None, doc="parameter value (set-param)")
+    auth: AuthTag | None = spec(None, doc="authentication tag; an FSW that holds the run's key refuses a command without a valid one")
 
     def __post_init__(self) -> None:
         needs = {
@@ -260,6 +270,8 @@ class CommandRecord:
     reply: TelecommandReply = spec(doc="the FSW's answer")
     payload: str = spec("", max_length=TEXT_CHARS, doc="the payload as received, when it did not decode (truncated)")
     ended: bool = spec(False, doc="served after the FSW's end-of-run sequence")
+    refused: str = spec("", max_length=TEXT_CHARS, doc="why the command was refused before it was looked at "
+                        "(authentication); it changed nothing. Empty for a command that was served")
 
 
 @dataclass(frozen=True, slots=True)
@@ -273,6 +285,7 @@ class RunStatus:
     state: RunState = spec(doc="lifecycle state")
     counts: dict[str, int] = spec(default_factory=dict, max_items=MAX_COUNTERS, max_length=NAME_CHARS, doc="counters, e.g. published, processed, rejected, lost")
     message: str = spec("", max_length=TEXT_CHARS, doc="human-readable detail (errors)")
+    auth: AuthTag | None = spec(None, doc="authentication tag; consumers that hold the run's key act only on a status with a valid one")
 
 
 #: Every ICD type, by its schema name.

@@ -4,7 +4,10 @@
 payload, the handler's :class:`TelecommandReply` back, a ``TelecommandReply(ok=False)`` for a
 malformed payload (counted), never an exception, and the Query dropped after every reply (a
 Query kept alive leaves the sender waiting for its whole timeout, then with an extra error).
-:func:`send_command` is the ground side.
+With the run's key (:class:`~fsw.interface.auth.MessageAuthenticator`) a command whose tag is
+missing, wrong or already used is refused before the handler sees it: counted, answered
+``ok=False`` and reported to ``on_refused`` so the FSW puts it on the record.
+:func:`send_command` is the ground side (it signs with the key it is given).
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from typing import Any
 
 import zenoh
 
-from fsw.interface import codec, topics
+from fsw.interface import auth, codec, topics
 from fsw.interface.messages import Telecommand, TelecommandReply
 from fsw.transport import wire
 from fsw.transport.session import TransportError
@@ -40,9 +43,10 @@ class CommandServer:
     caller's thread (e.g. at frame boundaries of the executive).
 
     Counters: ``served`` (valid commands answered), ``malformed`` (payloads rejected before the
-    handler), ``handler_errors`` (handler raised or returned something else than a reply).
-    ``on_malformed(payload, reply)``, if given, is told of every payload rejected before the
-    handler (so the FSW can put it on the record).
+    handler), ``refused`` (well-formed commands whose authentication failed), ``handler_errors``
+    (handler raised or returned something else than a reply). ``on_malformed(payload, reply)``
+    and ``on_refused(command, payload, reply, reason)``, if given, are told of every payload
+    rejected before the handler (so the FSW can put it on the record).
     """
 
     def __init__(
@@ -53,11 +57,17 @@ class CommandServer:
         *,
         threaded: bool = True,
         on_malformed: Callable[[bytes, TelecommandReply], None] | None = None,
+        authenticator: auth.MessageAuthenticator | None = None,
+        on_refused: Callable[[Telecommand, bytes, TelecommandReply, str], None] | None = None,
     ):
         self.handler = handler
         self.on_malformed = on_malformed
+        self.authenticator = authenticator
+        self.on_refused = on_refused
+        self._nonces = auth.NonceGuard()
         self.served = 0
         self.malformed = 0
+        self.refused = 0
         self.handler_errors = 0
         self.last_error = ""
         self._lock = threading.Lock()
@@ -83,6 +93,12 @@ class CommandServer:
         except codec.ICDError as exc:
             return self._refuse(payload, str(exc), TelecommandReply(
                 id=_best_effort_id(payload), ok=False, error=f"malformed telecommand: {exc}"[:500]))
+        if self.authenticator is not None:
+            why = self.authenticator.refusal(cmd)
+            if why is None and cmd.auth is not None and not self._nonces.first_use(cmd.auth.nonce):
+                why = auth.REPLAYED
+            if why is not None:
+                return self._refuse_unauthenticated(cmd, payload, why)
         try:
             reply = self.handler(cmd)
             if not isinstance(reply, TelecommandReply):
@@ -105,6 +121,20 @@ class CommandServer:
             try:
                 self.on_malformed(payload, reply)
             except Exception as exc:  # the record is lost, the reply still goes out
+                with self._lock:
+                    self.handler_errors += 1
+                    self.last_error = f"{type(exc).__name__}: {exc}"
+        return reply
+
+    def _refuse_unauthenticated(self, cmd: Telecommand, payload: bytes, why: str) -> TelecommandReply:
+        reply = TelecommandReply(id=cmd.id, ok=False, error=f"refused: {why}")
+        with self._lock:
+            self.refused += 1
+            self.last_error = f"command {cmd.id!r} refused: {why}"[:300]
+        if self.on_refused is not None:
+            try:
+                self.on_refused(cmd, payload, reply, why)
+            except Exception as exc:  # the record is lost, the refusal still stands
                 with self._lock:
                     self.handler_errors += 1
                     self.last_error = f"{type(exc).__name__}: {exc}"
@@ -137,7 +167,8 @@ class CommandServer:
 
     def status(self) -> dict[str, float]:
         with self._lock:
-            return {"served": self.served, "malformed": self.malformed, "handler_errors": self.handler_errors}
+            return {"served": self.served, "malformed": self.malformed, "refused": self.refused,
+                    "handler_errors": self.handler_errors}
 
     def close(self) -> None:
         if self._queryable is not None:
@@ -162,10 +193,14 @@ def declare_command_server(
     return CommandServer(session, run_id, handler, threaded=threaded)
 
 
-def send_command(session: zenoh.Session, run_id: str, cmd: Telecommand, timeout_s: float = 2.0) -> TelecommandReply:
-    """Send a telecommand and return the FSW's reply; :class:`TransportError` if none comes."""
+def send_command(session: zenoh.Session, run_id: str, cmd: Telecommand, timeout_s: float = 2.0,
+                 authenticator: auth.MessageAuthenticator | None = None) -> TelecommandReply:
+    """Send a telecommand (signed with ``authenticator``'s key if given) and return the FSW's
+    reply; :class:`TransportError` if none comes."""
     if not isinstance(cmd, Telecommand):
         raise TypeError(f"expected a Telecommand, got {type(cmd).__name__}")
+    if authenticator is not None:
+        cmd = authenticator.sign(cmd)
     return send_command_payload(session, run_id, codec.to_json(cmd), timeout_s=timeout_s)
 
 

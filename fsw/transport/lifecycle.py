@@ -13,6 +13,10 @@ the steps is what keeps a run lossless and lets every process exit:
    what is in flight. A consumer that did not confirm is an error naming it.
 5. A process that is also a consumer stays until its producers' drain queries were answered,
    then lingers a moment so the last reply leaves before the session closes.
+
+With credentials in the transport configuration the lifecycle holds the run's key: its
+publishers sign the statuses they put, its subscribers and command servers refuse statuses and
+telecommands without a valid tag, and the end-of-stream drain sends a signed status.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from typing import Any, Protocol
 
 import zenoh
 
+from fsw.interface.auth import MessageAuthenticator
 from fsw.interface.messages import RunStatus, Telecommand, TelecommandReply
 from fsw.transport import flow
 from fsw.transport.commands import CommandServer
@@ -62,6 +67,9 @@ class ProcessLifecycle:
         self.transport_cfg = transport_cfg
         self.stop_event = stop_event
         self.handle_signals = handle_signals
+        creds = transport_cfg.credentials if transport_cfg is not None else None
+        #: signs and checks statuses and telecommands with the run's key (None: no credentials)
+        self.authenticator = MessageAuthenticator(creds.run_key) if creds is not None else None
         self._session: zenoh.Session | None = None
         self._signalled = threading.Event()
         self._pubs: dict[str, TopicPublisher] = {}
@@ -120,7 +128,8 @@ class ProcessLifecycle:
         (later calls return the first one whatever their ``credit``)."""
         pub = self._pubs.get(topic)
         if pub is None:
-            pub = self._pubs[topic] = Publisher(self.session, self.run_id, topic, credit=credit)
+            pub = self._pubs[topic] = Publisher(self.session, self.run_id, topic, credit=credit,
+                                                authenticator=self.authenticator)
         if not isinstance(pub, Publisher):
             raise TypeError(f"{topic} was declared with a publisher of raw payloads, not ICD messages")
         return pub
@@ -144,14 +153,19 @@ class ProcessLifecycle:
 
     def subscriber(self, topic_exprs: Sequence[str] | str = ("**",), **kwargs: Any) -> Subscriber:
         """A :class:`Subscriber` of this run (keyword arguments as there), closed with the lifecycle."""
+        kwargs.setdefault("authenticator", self.authenticator)
         sub = Subscriber(self.session, self.run_id, topic_exprs, **kwargs)
         self._subs.append(sub)
         return sub
 
     def command_server(self, handler: Callable[[Telecommand], TelecommandReply], *, threaded: bool = True,
-                       on_malformed: Callable[[bytes, TelecommandReply], None] | None = None) -> CommandServer:
-        """A :class:`CommandServer` of this run, closed with the lifecycle."""
-        server = CommandServer(self.session, self.run_id, handler, threaded=threaded, on_malformed=on_malformed)
+                       on_malformed: Callable[[bytes, TelecommandReply], None] | None = None,
+                       on_refused: Callable[[Telecommand, bytes, TelecommandReply, str], None] | None = None,
+                       ) -> CommandServer:
+        """A :class:`CommandServer` of this run (refusing commands without a valid tag when the
+        lifecycle holds the run's key), closed with the lifecycle."""
+        server = CommandServer(self.session, self.run_id, handler, threaded=threaded, on_malformed=on_malformed,
+                               authenticator=self.authenticator, on_refused=on_refused)
         self._servers.append(server)
         return server
 
@@ -183,6 +197,8 @@ class ProcessLifecycle:
         Returns whether each consumer confirmed; with ``require_all`` a consumer that did not
         raises :class:`TransportError` naming it.
         """
+        if self.authenticator is not None:
+            status = self.authenticator.sign(status)
         done = flow.drain(self.session, self.run_id, status, consumers, timeout_s=timeout_s)
         missing = [c for c, ok in done.items() if not ok]
         if require_all and missing:

@@ -9,6 +9,9 @@
   progress queryable, is undeclared by :meth:`Subscriber.close`.
 * **Progress.** A subscriber with a ``role`` serves that role's progress queryable, through
   which producers pace themselves and end their stream (:mod:`fsw.transport.flow`).
+* **Authenticated statuses.** With the run's key (:mod:`fsw.interface.auth`) a publisher signs
+  every RunStatus it puts, and a subscriber acts only on statuses with a valid tag: a forged
+  end-of-run status (or drain query) is counted in ``refused`` and ends nothing.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from typing import Any, Protocol
 import zenoh
 
 from fsw.interface import codec, topics
+from fsw.interface.auth import AUTHENTICATED_TYPES, MessageAuthenticator
 from fsw.interface.messages import RunStatus
 from fsw.transport import wire
 from fsw.transport.flow import COMPLETE, PROGRESS, ROLES, CreditWindow
@@ -45,7 +49,8 @@ class Publisher:
 
     ``count`` is the number of messages put; each put carries it (before increment) as an 8-byte
     little-endian attachment so subscribers can count gaps. ``credit`` windows, if given, are
-    waited on before every put.
+    waited on before every put. With an ``authenticator``, messages of the authenticated types
+    are signed as they are put.
     """
 
     def __init__(
@@ -57,8 +62,10 @@ class Publisher:
         *,
         credit: Sequence[CreditWindow] = (),
         priority: zenoh.Priority | None = None,
+        authenticator: MessageAuthenticator | None = None,
     ):
         self.topic = topic.strip("/")
+        self.authenticator = authenticator
         self.key = topics.key(run_id, self.topic)
         try:
             expected = topics.type_of_topic(self.topic)
@@ -85,6 +92,8 @@ class Publisher:
         """Encode and publish one message of this topic's type."""
         if not isinstance(msg, self.cls):
             raise TypeError(f"{self.topic} carries {self.cls.__name__}, got {type(msg).__name__}")
+        if self.authenticator is not None and isinstance(msg, AUTHENTICATED_TYPES):
+            msg = self.authenticator.sign(msg)
         self.put_payload(codec.to_json(msg))
 
     def put_payload(self, payload: bytes) -> None:
@@ -128,6 +137,7 @@ class Received:
     schema: str  # schema in the Zenoh encoding, e.g. "navbank.Measurement/v1" ('' if none)
     message: Any | None  # decoded ICD message (None if not decoded)
     pub_seq: int | None  # publisher sequence number from the attachment
+    refused: str = ""  # why its authentication failed ('' if it passed or was not checked)
 
 
 class Subscriber:
@@ -140,6 +150,9 @@ class Subscriber:
     decoded so end-of-run statuses are tracked. ``received`` counts every sample taken, per
     topic; ``gaps`` counts publisher sequence numbers skipped. With ``role`` set, the progress
     queryable ``navbank/<run>/<role>/progress`` is served (see :mod:`fsw.transport.flow`).
+    With an ``authenticator`` a RunStatus without a valid tag — published, or sent as a drain
+    query — is counted in ``refused`` (per topic) and changes nothing: with ``decode=False`` it
+    is still returned, with its ``refused`` reason, so a recorder can keep it apart.
 
     Close it (or use ``with``): the progress queryable uses a callback, and a declared callback
     keeps the process from exiting.
@@ -154,6 +167,7 @@ class Subscriber:
         decode: bool = True,
         role: str | None = None,
         capacity: int = 8192,
+        authenticator: MessageAuthenticator | None = None,
     ):
         if isinstance(topic_exprs, str):
             topic_exprs = (topic_exprs,)
@@ -164,6 +178,8 @@ class Subscriber:
             raise ValueError(f"role {role!r}: expected one of {', '.join(ROLES)}")
         self.role = role
         self.decode = decode
+        self.authenticator = authenticator
+        self.refused: dict[str, int] = {}
         self._prefix_len = len(topics.run_prefix(run_id)) + 1
         self._patterns = [zenoh.KeyExpr(topics.key(run_id, t)) for t in topic_exprs]
         self._lock = threading.Lock()
@@ -252,6 +268,7 @@ class Subscriber:
                     self.gaps[topic] = self.gaps.get(topic, 0) + (pub_seq - expected)
                 self._next_seq[topic] = pub_seq + 1
         message: object | None = None
+        refused = ""
         try:
             cls = topics.type_of_topic(topic)
         except KeyError:
@@ -269,12 +286,24 @@ class Subscriber:
                     self.last_error = f"{topic}: {exc}"
                 if self.decode:
                     return None
+            if isinstance(message, RunStatus) and self.authenticator is not None:
+                refused = self.authenticator.refusal(message) or ""
+                if refused:
+                    self._count_refused(topic, refused)
+                    if self.decode:
+                        return None
+                    return Received(topic, payload, now, schema, message, pub_seq, refused)
             if isinstance(message, RunStatus) and message.state == "end-of-run":
                 self.end_of_run[message.source] = message
             t_s = getattr(message, "t_s", None)
             if t_s is not None and math.isfinite(t_s):
                 self.last_t_s = t_s
         return Received(topic, payload, now, schema, message, pub_seq)
+
+    def _count_refused(self, topic: str, why: str) -> None:
+        with self._lock:
+            self.refused[topic] = self.refused.get(topic, 0) + 1
+            self.last_error = f"{topic}: refused: {why}"
 
     # -- completeness ----------------------------------------------------------------------
     def _subscribed(self, topic: str) -> bool:
@@ -324,7 +353,10 @@ class Subscriber:
                 payload = query.payload
                 if payload is not None and len(payload.to_bytes()) > 0:
                     status = codec.from_json(RunStatus, payload.to_bytes())
-                    done = self.is_complete(status)
+                    why = self.authenticator.refusal(status) if self.authenticator is not None else None
+                    if why is not None:
+                        self._count_refused(f"{self.role}/{PROGRESS}", why)
+                    done = why is None and self.is_complete(status)
                     counts[COMPLETE] = int(done)
                     if done:
                         self.acknowledged[status.source] = True

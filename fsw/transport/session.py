@@ -12,6 +12,10 @@ The measured Zenoh pitfalls (NOTES-zenoh-mcap.md) that concern sessions are hand
   (``--connect`` to the logger, say) learn each other's listeners from it and link directly.
   ``navbank run`` knows all processes and uses :func:`mesh_configs`: a fixed free port per
   process, each connecting to the ones started before it, so the mesh does not depend on gossip.
+* **Authentication.** With :class:`~fsw.transport.credentials.RunCredentials` a session listens
+  and connects only on ``tls/`` endpoints with mutual TLS and holds the run's ingress access
+  control list (:mod:`fsw.transport.credentials`); a ``tcp/`` endpoint is then a configuration
+  error, so a run never falls back to plain links by accident.
 * **Processes.** Forking after ``zenoh.open()`` hangs the child: open sessions only in the
   process that uses them (``spawn``).
 """
@@ -27,6 +31,7 @@ from typing import Any, Literal
 import zenoh
 
 from fsw.interface.typed import spec
+from fsw.transport.credentials import RunCredentials, access_control, tls_settings
 
 
 class TransportError(RuntimeError):
@@ -50,11 +55,16 @@ class TransportConfig:
     gossip: bool = spec(True, doc="learn other peers' listeners through connected peers and link to them directly")
     config_file: str | None = spec(None, doc="Zenoh JSON5 configuration file used as the base configuration")
     connect_timeout_s: float = spec(10.0, doc="time allowed for every connect endpoint to answer", unit="s", gt=0.0)
+    credentials: RunCredentials | None = spec(
+        None, doc="the run's credentials for this process's role: mutual TLS, access control and the HMAC key (None: plain links)"
+    )
 
     def __post_init__(self) -> None:
         for ep in (*self.listen, *self.connect):
             if "/" not in ep or not ep.split("/", 1)[1]:
                 raise ValueError(f"endpoint {ep!r}: expected <protocol>/<address>, e.g. tcp/127.0.0.1:7447")
+            if self.credentials is not None and not ep.startswith("tls/"):
+                raise ValueError(f"endpoint {ep!r}: with credentials every endpoint is tls/<address>")
         if self.mode == "client" and not self.connect:
             raise ValueError("client mode needs at least one connect endpoint (a router)")
 
@@ -79,6 +89,9 @@ def zenoh_config(cfg: TransportConfig) -> zenoh.Config:
         put("listen/endpoints", list(cfg.listen))
         put("listen/exit_on_failure", True)
     put("connect/endpoints", list(cfg.connect))
+    if cfg.credentials is not None:
+        put("transport/link/tls", tls_settings(cfg.credentials))
+        put("access_control", access_control())
     if cfg.connect:
         put("connect/timeout_ms", int(round(cfg.connect_timeout_s * 1000)))
         put("connect/exit_on_failure", True)
@@ -123,10 +136,11 @@ def mesh_configs(
     host: str = "127.0.0.1",
     ports: Sequence[int] | None = None,
     gossip: bool = False,
+    protocol: str = "tcp",
 ) -> dict[str, TransportConfig]:
     """A full mesh for processes started together (``navbank run``): one fixed port per role.
 
-    Role ``i`` listens on its own port and connects to roles ``0..i-1``, so every pair has exactly
+    Role ``i`` listens on its own port (``protocol`` ``tls`` for a run with credentials) and connects to roles ``0..i-1``, so every pair has exactly
     one direct link. Gossip is off by default here: the mesh does not need it, and the links are
     then exactly the configured ones. Start the roles in the given order; a later role's connects
     are retried until ``connect_timeout_s``, and every earlier role must still be running then
@@ -136,5 +150,5 @@ def mesh_configs(
     ports = list(ports) if ports is not None else free_tcp_ports(len(roles), host)
     if len(ports) != len(roles):
         raise ValueError(f"{len(roles)} roles but {len(ports)} ports")
-    eps = [f"tcp/{host}:{p}" for p in ports]
+    eps = [f"{protocol}/{host}:{p}" for p in ports]
     return {r: replace(base, listen=(eps[i],), connect=tuple(eps[:i]), gossip=gossip) for i, r in enumerate(roles)}

@@ -21,6 +21,9 @@ from fsw.interface import codec, topics
 
 #: Channel prefix for payloads that arrived on an ICD topic but do not decode (kept, never lost).
 INVALID_PREFIX = "/_invalid"
+#: Channel prefix for statuses whose authentication failed (forged): recorded apart, so nothing
+#: that reads the run's own channels takes them for the producer's.
+REFUSED_PREFIX = "/_refused"
 RAW_ENCODING = "application/octet-stream"
 PROFILE = ""  # no well-known MCAP profile fits JSON + JSON Schema; Foxglove reads it as is
 
@@ -82,6 +85,8 @@ class McapRecorder:
             return cid
         if mtopic.startswith(INVALID_PREFIX + "/"):
             cid = self._writer.register_channel(mtopic, RAW_ENCODING, 0)
+        elif mtopic.startswith(REFUSED_PREFIX + "/"):
+            cid = self._writer.register_channel(mtopic, "json", 0)
         else:
             try:
                 cls = topics.type_of_topic(mtopic)

@@ -76,7 +76,9 @@ def recorded_commands(path: str | os.PathLike) -> list[CommandRecord]:
 
 
 def _serve(core: FswCore, record: CommandRecord) -> None:
-    if record.telecommand is not None:
+    if record.refused:
+        core.record_refused_command(record.telecommand, record.payload, record.reply, record.refused)
+    elif record.telecommand is not None:
         core.command(record.telecommand)
     else:
         core.record_malformed_command(record.payload, record.reply)

@@ -34,7 +34,7 @@ def run(args) -> int:
     cfg, _ = resolve(scenario_from_args(args), args.seed)
     consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
     try:
-        counts = run_fsw(cfg.fsw, args.run_id, transport_config_from_args(args), consumers=consumers,
+        counts = run_fsw(cfg.fsw, args.run_id, transport_config_from_args(args, "fsw"), consumers=consumers,
                          progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout)
     except tp.TransportError as exc:
         print(f"navbank fsw: {exc}", file=sys.stderr)

@@ -44,7 +44,7 @@ def _log(args) -> int:
     """Run ``navbank ground log``; 0 on success, 1 if the network or the file failed."""
     check_output_file(args.out)  # before subscribing: exit 2 for a file we could not write
     try:
-        cfg = transport_config_from_args(args)
+        cfg = transport_config_from_args(args, "ground")
         producers = tuple(p.strip() for p in args.producers.split(",") if p.strip())
         logger.run_logger(
             args.run_id,

@@ -42,6 +42,9 @@ def add_arguments(p) -> None:
     g.add_argument("--cpu-scale", type=float, default=None, metavar="X", help="charge X times the measured CPU (a slower flight processor)")
     p.add_argument("--timeout", type=float, default=3600.0, metavar="S", help="stop everything after S seconds (default 3600)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--plain-tcp", action="store_true",
+                   help="plain TCP links without authentication (default: mutual TLS, access control and signed "
+                        "telecommands and end-of-run statuses, with credentials made for this run in DIR/credentials)")
 
 
 def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, cpu_scale: float | None) -> ScenarioConfig:
@@ -114,7 +117,7 @@ def run(args) -> int:
     reason: str | None = None
     code = 0
     try:
-        launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo)
+        launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo, authenticated=not args.plain_tcp)
     except RunFailed as exc:
         status, reason, code = "failed", str(exc), 1
         print(f"navbank run: {exc}", file=sys.stderr)

@@ -79,7 +79,7 @@ def run(args) -> int:
 
         consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
         try:
-            counts = publish_run(run_, args.run_id, transport_config_from_args(args), consumers=consumers,
+            counts = publish_run(run_, args.run_id, transport_config_from_args(args, "sim"), consumers=consumers,
                                  credit_role="fsw" if "fsw" in consumers else None, window=args.window,
                                  rate=args.rate, progress=ProgressBar("sim"))
         except tp.TransportError as exc:
