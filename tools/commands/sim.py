@@ -60,6 +60,7 @@ def run(args) -> int:
         if not path.endswith((".jsonl", ".mcap")):
             raise UsageError(f"--out {path}: expected a .jsonl or .mcap file name")
         check_output_file(path)  # before the simulation: exit 2 for a file we could not write
+    transport_cfg = transport_config_from_args(args, "sim") if args.run_id is not None else None  # bad options: exit 2 now
     cfg, seed = resolve(scenario_from_args(args), args.seed)
     t0 = time.perf_counter()
     run_ = generate(cfg.sim, seed=seed)
@@ -79,7 +80,7 @@ def run(args) -> int:
 
         consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
         try:
-            counts = publish_run(run_, args.run_id, transport_config_from_args(args, "sim"), consumers=consumers,
+            counts = publish_run(run_, args.run_id, transport_cfg, consumers=consumers,
                                  credit_role="fsw" if "fsw" in consumers else None, window=args.window,
                                  rate=args.rate, progress=ProgressBar("sim"))
         except tp.TransportError as exc:
