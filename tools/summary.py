@@ -61,6 +61,9 @@ def describe(summary: RunSummary) -> str:
             lines.append(f"  day {c.day:6.2f}  {c.command} {what}".rstrip())
         if len(changed) > 10:
             lines.append(f"  ... and {len(changed) - 10} more (summary.json lists them all)")
+    if s.refused and any(s.refused.values()):
+        lines.append(f"REFUSED (failed authentication, changed nothing): {s.refused.get('telecommands', 0)} telecommands, "
+                     f"{s.refused.get('statuses', 0)} statuses or drain queries (see /fsw/commands and /_refused/)")
     if s.wall_time_s is not None:
         lines.append(f"wall time {s.wall_time_s:.1f} s")
     return "\n".join(lines)

@@ -113,7 +113,10 @@ def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, 
     )
 
     lost_count = counts.get("lost", 0) if lost is None else lost
-    served = [_command_entry(c, t0) for c in by.get(topics.FSW_COMMANDS, [])]
+    # a command refused for its authentication was never looked at: it is counted, not listed
+    served = [_command_entry(c, t0) for c in by.get(topics.FSW_COMMANDS, []) if not c.refused]
+    refused = ({"telecommands": int(counts["refused_commands"]), "statuses": int(counts.get("refused_statuses", 0))}
+               if "refused_commands" in counts else None)
     return RunSummary(
         scenario=scenario,
         seed=seed,
@@ -138,4 +141,5 @@ def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, 
         budget=budget,
         wall_time_s=wall_time_s,
         commands=tuple(served) or None,
+        refused=refused,
     )

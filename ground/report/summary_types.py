@@ -192,7 +192,8 @@ class RunSummary(JsonRecord):
 
     # monitors: campaign runs with monitors; run_id and files: summaries of ``navbank run``;
     # commands: runs that were commanded; status, reason: summaries of ``navbank run``
-    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"monitors", "run_id", "files", "commands", "status", "reason"})
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"monitors", "run_id", "files", "commands", "status", "reason",
+                                                           "refused"})
 
     scenario: str = spec(doc="scenario name")
     seed: int = spec(doc="random seed of the run")
@@ -211,6 +212,10 @@ class RunSummary(JsonRecord):
     run_id: str | None = spec(None, doc="the run's id")
     files: RunFiles | None = spec(None, doc="the run's files")
     commands: tuple[CommandEntry, ...] | None = spec(None, doc="telecommands the FSW served, in order")
+    refused: dict[str, int] | None = spec(
+        None, doc="attempts the FSW refused for failed authentication, from its final counters: 'telecommands' "
+                  "(listed on /fsw/commands, not among the commands served) and 'statuses' (forged end-of-run "
+                  "statuses and drain queries); runs over Zenoh only")
     status: RunEnding | None = spec(
         None, doc="how the run ended: complete; interrupted (SIGINT/SIGTERM); failed (a process failed, time ran out)")
     reason: str | None = spec(None, doc="why it did not complete, in one line")
