@@ -170,3 +170,17 @@ def test_tags_round_trip_through_the_icd_json():
     data = json.loads(codec.to_json(signed))
     assert set(data["auth"]) == {"nonce", "mac"}
     assert codec.from_json(Telecommand, json.dumps(data)) == signed
+
+
+def test_the_credentials_command_makes_a_directory_once(tmp_path):
+    d = tmp_path / "hand"
+    run = lambda *a: subprocess.run([sys.executable, "-m", "tools.cli", "credentials", *a], capture_output=True,  # noqa: E731
+                                    text=True, timeout=120)
+    first = run(str(d))
+    assert first.returncode == 0, first.stderr
+    assert load_credentials(d, "operator").role == "operator"
+    again = run(str(d))  # never overwrites the credentials of a run
+    assert again.returncode == 2 and len(again.stderr.strip().splitlines()) == 1, again.stderr
+    bad = run(str(tmp_path / "x"), "--host", "nope")
+    assert bad.returncode == 2 and not (tmp_path / "x").exists(), bad.stderr
+

@@ -29,6 +29,7 @@ COMMANDS = (
     "tools.commands.ground",
     "tools.commands.replay",
     "tools.commands.recover",
+    "tools.commands.credentials",
     "tools.commands.bench",
     "tools.commands.report",
     "tools.commands.campaign",

@@ -38,6 +38,7 @@ def _name(cn: str) -> x509.Name:
 def make_credentials(directory: str | os.PathLike, *, roles: tuple[str, ...] = ROLES, days: float = 7.0,
                      host: str = "127.0.0.1") -> Path:
     """Write a new credentials directory (it must not exist yet; mode 0700, files 0600)."""
+    ip = ipaddress.ip_address(host)  # a bad address fails before anything is written
     d = Path(directory)
     d.mkdir(mode=0o700, parents=False)
     os.chmod(d, 0o700)  # mkdir's mode is filtered by the umask
@@ -58,7 +59,7 @@ def make_credentials(directory: str | os.PathLike, *, roles: tuple[str, ...] = R
         cert = (x509.CertificateBuilder().subject_name(_name(role)).issuer_name(ca_name).public_key(key.public_key())
                 .serial_number(x509.random_serial_number()).not_valid_before(now).not_valid_after(until)
                 .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
-                .add_extension(x509.SubjectAlternativeName([x509.IPAddress(ipaddress.ip_address(host))]), critical=False)
+                .add_extension(x509.SubjectAlternativeName([x509.IPAddress(ip)]), critical=False)
                 .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH]),
                                critical=False)
                 .sign(ca_key, hashes.SHA256()))

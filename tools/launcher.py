@@ -14,11 +14,11 @@ first, and supervises:
   final counters, the logger finishes its file);
 * a run that does not end within ``timeout_s`` is stopped and reported.
 
-Unless asked for plain TCP, the run is authenticated: the launcher makes the run's credentials in
-``DIR/credentials`` (a fresh CA, one certificate per role, the HMAC key; ``tools/credentials.py``),
-the mesh links are mutual TLS, and each process gets ``--credentials``. The directory is removed
-when the run ends: its certificates and key are worth nothing to anyone afterwards, and nothing
-keeps private keys lying around.
+Unless asked for plain TCP, the run is authenticated: the launcher makes the run's credentials (a
+fresh CA, one certificate per role, the HMAC key; ``tools/credentials.py``) in a private temporary
+directory, not in the output directory (results get copied and shared; keys must not travel with
+them), the mesh links are mutual TLS, and each process gets ``--credentials``. The directory is
+removed when the run ends: its certificates and key are worth nothing to anyone afterwards.
 
 On success it reads the MCAP back, computes the summary (``ground.report.run_summary``) and writes
 ``DIR/summary.json`` next to ``DIR/run.mcap``, ``DIR/config.yaml`` and one log per process.
@@ -32,6 +32,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
@@ -159,15 +160,20 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
     out_dir.mkdir(parents=True, exist_ok=True)
     cfg_path = out_dir / "config.yaml"
     cfg_path.write_text(to_yaml(cfg, complete=True), encoding="utf-8")
-    credentials = out_dir / "credentials" if authenticated else None
-    if credentials is not None:
-        shutil.rmtree(credentials, ignore_errors=True)  # a previous run's, worthless now
-        make_credentials(credentials)
+    private = credentials = None
+    if authenticated:
+        try:
+            private = Path(tempfile.mkdtemp(prefix=f"navbank-{run_id}-"))  # mode 0700
+            credentials = make_credentials(private / "credentials")
+        except OSError as exc:
+            if private is not None:
+                shutil.rmtree(private, ignore_errors=True)
+            raise RunFailed(f"cannot make the run's credentials: {_errno_text(exc)}") from None
     try:
         return _launch(cfg_path, run_id, out_dir, timeout_s, echo, credentials)
     finally:
-        if credentials is not None:
-            shutil.rmtree(credentials, ignore_errors=True)
+        if private is not None:
+            shutil.rmtree(private, ignore_errors=True)  # our own temporary directory
 
 
 def _launch(cfg_path: Path, run_id: str, out_dir: Path, timeout_s: float, echo: Callable[[str], None] | None,

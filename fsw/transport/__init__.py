@@ -4,6 +4,8 @@ The measured Zenoh pitfalls (NOTES-zenoh-mcap.md) are handled once, each in the 
 
 * :mod:`~fsw.transport.session` — joining the network: loopback peers, failed connects as
   errors, the mesh of a local run (:class:`TransportConfig`, :func:`open_session`, :func:`mesh_configs`);
+* :mod:`~fsw.transport.credentials` — a run's credentials (checked when loaded) and the mutual
+  TLS and access-control list they configure;
 * :mod:`~fsw.transport.wire` — what a sample carries: JSON with the schema name, a sequence number;
 * :mod:`~fsw.transport.pubsub` — typed publishers (RELIABLE, BLOCK) and bounded-FIFO subscribers
   that count gaps and serve a progress queryable;
@@ -15,6 +17,7 @@ The measured Zenoh pitfalls (NOTES-zenoh-mcap.md) are handled once, each in the 
 """
 
 from fsw.transport.commands import CommandServer, declare_command_server, send_command, send_command_payload
+from fsw.transport.credentials import CredentialsError, RunCredentials, load_credentials
 from fsw.transport.flow import COMPLETE, PROGRESS, ROLES, CreditWindow, drain, query_progress, wait_for_consumers
 from fsw.transport.lifecycle import REPLY_LINGER_S, ProcessLifecycle, StopFlag
 from fsw.transport.pubsub import Publisher, Received, Subscriber, TopicPublisher, end_of_run_counts
@@ -28,6 +31,9 @@ __all__ = [
     "ROLES",
     "CommandServer",
     "CreditWindow",
+    "CredentialsError",
+    "RunCredentials",
+    "load_credentials",
     "ProcessLifecycle",
     "StopFlag",
     "TopicPublisher",

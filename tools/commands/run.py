@@ -44,7 +44,7 @@ def add_arguments(p) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--plain-tcp", action="store_true",
                    help="plain TCP links without authentication (default: mutual TLS, access control and signed "
-                        "telecommands and end-of-run statuses, with credentials made for this run in DIR/credentials)")
+                        "telecommands and end-of-run statuses, with credentials made for this run and removed when it ends)")
 
 
 def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, cpu_scale: float | None) -> ScenarioConfig:
