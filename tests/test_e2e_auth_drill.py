@@ -13,7 +13,8 @@ intruder, finds the FSW's and the logger's ports from the process table, and tri
 
 Between the attempts the legitimate operator's signed ``status`` command is answered, which
 proves the run was alive for every attempt. The run must end normally with the same results as
-an undisturbed run of the same scenario (work-unit budget: deterministic).
+an undisturbed run of the same scenario (work-unit budget: deterministic), and ``navbank replay
+--rerun`` of its recording must reproduce every FSW message.
 """
 
 from __future__ import annotations
@@ -226,6 +227,11 @@ def test_uninvited_peer_cannot_command_or_forge(tmp_path, short_scenario):
     assert [s.state for s in sim_status] == ["start", "end-of-run"] and sim_status[-1].t_s < 1e9
     logger = _logger_metadata(out / "run.mcap")
     assert logger["refused"] == {"sim/status": N_FORGED_STATUS, "ground/progress": N_FORGED_DRAIN}
+    # the record is complete: a re-run serving the recorded commands (refused ones refused again)
+    # reproduces every FSW message
+    rerun = subprocess.run(_navbank("replay", str(out / "run.mcap"), "--rerun"), capture_output=True, text=True,
+                           timeout=600)
+    assert rerun.returncode == 0 and "result: IDENTICAL (tolerance 0)" in rerun.stdout, rerun.stdout[-3000:]
     print(f"\ndrill: run {run_id}, attacks took {attack_s:.1f} s mid-run; links refused 3 (no certificate, "
           f"TLS without client certificate, another CA); {N_WRONG_ROLE} commands and 1 status with the wrong "
           f"role dropped by the ACL; refused and recorded: {n_commands} telecommands "

@@ -99,6 +99,14 @@ def test_status_keys_on_one_side_are_listed_not_compared():
     assert td.fields["counts.processed"].max_abs == 1.0
 
 
+def test_a_status_authentication_tag_is_not_compared_but_its_contents_are():
+    rec = m.RunStatus(t_s=1.0, timestamp=STAMP, run_id="r", source="fsw", state="end-of-run", counts={"processed": 5},
+                      auth=m.AuthTag(nonce="ab" * 16, mac="cd" * 32))
+    plain = dataclasses.replace(rec, auth=None)
+    assert compare_messages("/fsw/status", [rec], [plain]).identical(0.0)
+    assert not compare_messages("/fsw/status", [rec], [dataclasses.replace(plain, state="running")]).identical(0.0)
+
+
 # --------------------------------------------------------------------------------------------
 # configuration from the recording
 # --------------------------------------------------------------------------------------------

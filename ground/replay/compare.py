@@ -11,7 +11,9 @@ into the field name (``weights``, ``state``, ``sigma``), mapping keys are kept
 Status messages are the exception to "present on one side only is a mismatch": the FSW process
 adds transport counters to its statuses (malformed telecommands, refused topics, transport
 gaps), which an in-process re-run does not have; such keys are listed, not compared. The same
-holds for the counters in the replies to ``status`` telecommands in the command records.
+holds for the counters in the replies to ``status`` telecommands in the command records. A
+status's authentication tag (``auth``) is the transport's too — a fresh nonce for every status
+of an authenticated run, none in a re-run — and is left out of the comparison.
 """
 
 from __future__ import annotations
@@ -129,6 +131,12 @@ def _leaf_diff(a: Any, b: Any) -> float | None:
     return None
 
 
+def _without_tag(topic: str, data: Any) -> Any:
+    if topic in STATUS_TOPICS and isinstance(data, dict) and "auth" in data:
+        return {k: v for k, v in data.items() if k != "auth"}
+    return data
+
+
 def compare_messages(topic: str, recorded: list[Any], rerun: list[Any], *, compared: bool = True,
                      note: str = "") -> TopicDiff:
     """Pairwise comparison of two message lists of one topic (ICD messages or JSON dicts)."""
@@ -137,8 +145,8 @@ def compare_messages(topic: str, recorded: list[Any], rerun: list[Any], *, compa
         return td
     counters = "counts." if topic in STATUS_TOPICS else "reply.status." if topic in COMMAND_TOPICS else None
     for i, (ra, rb) in enumerate(zip(recorded, rerun)):
-        da = flatten(ra if isinstance(ra, dict) else codec.to_dict(ra))
-        db = flatten(rb if isinstance(rb, dict) else codec.to_dict(rb))
+        da = flatten(_without_tag(topic, ra if isinstance(ra, dict) else codec.to_dict(ra)))
+        db = flatten(_without_tag(topic, rb if isinstance(rb, dict) else codec.to_dict(rb)))
         t_s = da.get("t_s") if _is_number(da.get("t_s")) else None
         for path in da.keys() | db.keys():
             name = _INDEX.sub("", path)
