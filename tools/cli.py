@@ -28,6 +28,7 @@ COMMANDS = (
     "tools.commands.fsw",
     "tools.commands.ground",
     "tools.commands.replay",
+    "tools.commands.command",
     "tools.commands.recover",
     "tools.commands.credentials",
     "tools.commands.bench",
