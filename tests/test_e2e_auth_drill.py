@@ -119,11 +119,21 @@ def _attack(run_id: str, creds_dir: Path, fsw_ep: str, ground_ep: str, other_dir
             _control(op, run_id, operator, links_refused)
         # 2. a certificate of the run in the wrong role: dropped by the ACL, silently
         with T.open_session(cfg("ground")) as s:
+            querier = s.declare_querier(topics.key(run_id, topics.FSW_COMMAND), timeout=0.2)
+            pub = s.declare_publisher(topics.key(run_id, topics.SIM_STATUS))
+            deadline = time.monotonic() + 10
+            # the FSW's queryable and the consumers' subscribers are known here: what follows is
+            # dropped by their access-control lists, not lost for want of a route
+            while not (querier.matching_status.matching and pub.matching_status.matching):
+                assert time.monotonic() < deadline, "the run's declarations never arrived"
+                time.sleep(0.01)
             for i in range(N_WRONG_ROLE):
                 cmd = Telecommand(id=f"wrong-role-{i}", command="reset-gating", network="chi2")
-                with pytest.raises(T.TransportError, match="no FSW"):
-                    T.send_command(s, run_id, operator.sign(cmd), timeout_s=0.2)
-            s.put(topics.key(run_id, topics.SIM_STATUS), codec.to_json(operator.sign(_end_of_run(run_id))))
+                assert list(querier.get(payload=codec.to_json(operator.sign(cmd)))) == []
+            pub.put(codec.to_json(operator.sign(_end_of_run(run_id))))
+            time.sleep(0.2)
+            pub.undeclare()
+            querier.undeclare()
         _control(op, run_id, operator, 10)
         # 3. the operator's certificate without the run's key
         with T.open_session(cfg("operator", eps=(fsw_ep,))) as s:

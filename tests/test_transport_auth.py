@@ -53,6 +53,15 @@ def fsw_peer(creds):
             sub.undeclare()
 
 
+def _until_matched(*entities, timeout_s: float = 5.0) -> None:
+    """Wait until each publisher or querier sees the peer's subscriber or queryable: only then does
+    a put or query that gets nowhere say something about the access-control list."""
+    deadline = time.monotonic() + timeout_s
+    while not all(e.matching_status.matching for e in entities):
+        assert time.monotonic() < deadline, "the peer's declarations never arrived"
+        time.sleep(0.01)
+
+
 def _received(sub, wait_s: float = 0.5) -> list[str]:
     time.sleep(wait_s)
     out = []
@@ -69,9 +78,13 @@ def test_the_access_control_list_lets_each_role_do_only_its_own_job(creds, fsw_p
     outcome = {}
     for role in ("sim", "ground", "operator", "fsw"):
         with T.open_session(_cfg(run_dir, role, ep)) as s:
-            s.put(status_key, f"from {role}".encode())
-            replies = [r.ok.payload.to_bytes() for r in s.get(cmd_key, timeout=1.0) if r.ok is not None]
+            pub, querier = s.declare_publisher(status_key), s.declare_querier(cmd_key, timeout=1.0)
+            _until_matched(pub, querier)
+            pub.put(f"from {role}".encode())
+            replies = [r.ok.payload.to_bytes() for r in querier.get() if r.ok is not None]
             outcome[role] = (tuple(_received(sub)), tuple(replies))
+            querier.undeclare()
+            pub.undeclare()
             time.sleep(0.1)
     # only the simulator may put on sim/**, only the operator may command; every other attempt is
     # dropped by the receiving peer without a word
@@ -102,8 +115,11 @@ def test_peers_without_a_certificate_of_the_run_cannot_link(creds, fsw_peer, tmp
                 s.put(topics.key(RUN, topics.SIM_STATUS), b"forged")
         # the peer was alive all along: a run certificate still gets through right after
         with T.open_session(_cfg(run_dir, "sim", ep)) as s:
-            s.put(topics.key(RUN, topics.SIM_STATUS), label.encode())
+            pub = s.declare_publisher(topics.key(RUN, topics.SIM_STATUS))
+            _until_matched(pub)
+            pub.put(label.encode())
             assert _received(sub, 0.3) == [topics.key(RUN, topics.SIM_STATUS)], label
+            pub.undeclare()
 
 
 # -- the application layer (plain links: what it refuses does not depend on the transport) ----------
@@ -129,6 +145,15 @@ def test_unsigned_forged_and_replayed_telecommands_are_refused_and_reported(pair
     good, bad = auth.MessageAuthenticator(KEY), auth.MessageAuthenticator(bytes(32))
     with T.CommandServer(fsw_session, RUN, handle, authenticator=good,
                          on_refused=lambda cmd, payload, reply, why: refused.append((cmd.id, why))) as server:
+        deadline = time.monotonic() + 10
+        while True:  # until the queryable's declaration has reached the other session
+            try:
+                assert T.send_command(ground, RUN, Telecommand(id="probe", command="status"), timeout_s=0.5,
+                                      authenticator=good).ok
+                break
+            except T.TransportError:
+                assert time.monotonic() < deadline, "the command server never answered"
+        handled.clear()
         cmd = Telecommand(id="d1", command="disable-filter", filter="radio")
         r_none = T.send_command(ground, RUN, cmd)
         r_bad = T.send_command(ground, RUN, cmd, authenticator=bad)
@@ -143,7 +168,7 @@ def test_unsigned_forged_and_replayed_telecommands_are_refused_and_reported(pair
     assert (r_again.ok, r_again.error) == (False, f"refused: {auth.REPLAYED}")
     assert handled == [signed, handled[1]] and len(handled) == 2  # only the two valid ones reached the handler
     assert refused == [("d1", auth.MISSING), ("d1", auth.BAD), ("d1", auth.REPLAYED)]
-    assert status == {"served": 2, "malformed": 0, "refused": 3, "handler_errors": 0}
+    assert status == {"served": 3, "malformed": 0, "refused": 3, "handler_errors": 0}  # with the probe
 
 
 def _end(counts: dict[str, int]) -> RunStatus:
