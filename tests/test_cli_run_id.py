@@ -57,7 +57,7 @@ def test_one_type_for_every_command():
                 if "--run-id" in a.option_strings:
                     assert a.type is run_id_arg, name
                     seen.append(name)
-    assert sorted(seen) == sorted(["run", "sim", "fsw", "ground", "replay"])
+    assert sorted(seen) == sorted(["run", "sim", "fsw", "ground", "replay", "command"])
 
 
 def test_good_run_id_passes_the_check():
