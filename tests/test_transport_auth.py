@@ -3,6 +3,7 @@ and the HMAC refusals of telecommands, statuses and drain queries (counted, chan
 
 from __future__ import annotations
 
+import json
 import time
 from pathlib import Path
 
@@ -196,3 +197,18 @@ def test_a_forged_end_of_run_status_or_drain_ends_nothing(pair):
         assert got is not None and got.refused == "" and sub.finished(["sim"])
         reply = T.query_progress(producer, RUN, "ground", good.sign(_end({})))
         assert reply is not None and reply.counts.get(T.COMPLETE) == 1 and sub.acknowledged == {"sim": True}
+
+
+def test_credentials_configure_tls_and_the_acl_and_refuse_plain_endpoints(creds):
+    run_dir, _ = creds
+    c = load_credentials(run_dir, "sim")
+    zc = T.zenoh_config(T.TransportConfig(listen=("tls/127.0.0.1:0",), credentials=c))
+    tls = json.loads(zc.get_json("transport/link/tls"))
+    assert tls["enable_mtls"] and tls["root_ca_certificate"] == str(run_dir / "ca.pem")
+    assert tls["connect_certificate"] == tls["listen_certificate"] == str(run_dir / "sim.pem")
+    acl = json.loads(zc.get_json("access_control"))
+    assert acl["enabled"] and acl["default_permission"] == "deny"
+    with pytest.raises(ValueError, match="tls/"):
+        T.TransportConfig(credentials=c)  # the default listener is plain TCP
+    with pytest.raises(ValueError, match="tls/"):
+        T.TransportConfig(listen=("tls/127.0.0.1:0",), connect=("tcp/127.0.0.1:7447",), credentials=c)
