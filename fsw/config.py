@@ -50,6 +50,9 @@ class GatingEntry:
     def _typed_encode(self, drop_defaults: bool) -> dict[str, Any]:
         return {"network": self.network, **typed.encode(self.params, drop_defaults=drop_defaults)}
 
+    def _typed_annotated(self) -> tuple[list[tuple[str, Any, str]], Any]:
+        return [("network", self.network, "gating network (see docs/scenarios.md)")], self.params
+
     @classmethod
     def _typed_schema(cls) -> dict[str, Any]:
         variants = []
