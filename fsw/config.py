@@ -43,7 +43,8 @@ class GatingEntry:
             raise DecodeError(path, "a mapping {network: NAME, parameters...}", type(data).__name__)
         name = data.get("network")
         if name not in NETWORKS:
-            raise DecodeError(f"{path}.network" if path else "network", "one of " + ", ".join(NETWORKS), repr(name))
+            raise DecodeError(f"{path}.network" if path else "network", "one of " + ", ".join(NETWORKS),
+                              repr(name) + typed.did_you_mean(name, NETWORKS))
         rest = {k: v for k, v in data.items() if k != "network"}
         return cls(network=name, params=typed.decode(params_type(name), rest, path))
 

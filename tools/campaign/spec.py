@@ -74,7 +74,8 @@ class FaultCase:
         if self.preset is None and not self.faults:
             raise ValueError("a fault case needs a preset (e.g. 'none') or a list of faults")
         if self.preset is not None and self.preset not in FAULT_PRESETS:
-            raise ValueError(f"unknown fault preset {self.preset!r}; known: {', '.join(FAULT_PRESETS)}")
+            raise ValueError(f"unknown fault preset {self.preset!r}{typed.did_you_mean(self.preset, FAULT_PRESETS)}; "
+                             f"known: {', '.join(FAULT_PRESETS)}")
         if self.preset is None and not self.name:
             raise ValueError("a custom fault case needs a name")
         if self.faults and self.onset_day is not None:
@@ -238,6 +239,6 @@ def load_campaign(name_or_path: str) -> LoadedCampaign:
     res = builtin_dir().joinpath(f"{name_or_path}.yaml")
     if not res.is_file():
         raise ConfigError(name_or_path, None, "", "a built-in campaign (" + ", ".join(builtin_names()) + ") or a YAML file",
-                          "unknown name")
+                          "unknown name" + typed.did_you_mean(name_or_path, builtin_names()))
     return load_campaign_text(res.read_text(encoding="utf-8"), f"<built-in campaign {name_or_path}>",
                               Path(str(builtin_dir())))
