@@ -11,7 +11,8 @@ from fsw.interface.yamlconfig import ConfigError
 from tools.commands.arg_types import run_id_arg
 from tools.commands.common import new_run_id
 from tools.commands.outputs import check_output_file
-from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
+from tools.commands.transport_args import add_transport_arguments
+from tools.rendezvous import joined
 
 NAME = "replay"
 HELP = "republish a recorded run over Zenoh, or re-run its FSW on the recorded measurements (--rerun)"
@@ -113,8 +114,9 @@ def _republish(args) -> int:
     print(f"navbank replay: {args.mcap} -> run {run_id} at rate {rate:g}"
           + (f", consumers {', '.join(consumers)}" if consumers else ""), file=sys.stderr)
     try:
-        res = republish(args.mcap, run_id, transport_config_from_args(args), rate=rate, consumers=consumers,
-                        consumer_timeout_s=args.consumer_timeout, progress=progress)
+        with joined(args, run_id, "replay") as cfg:
+            res = republish(args.mcap, run_id, cfg, rate=rate, consumers=consumers,
+                            consumer_timeout_s=args.consumer_timeout, progress=progress)
     except (RecordingError, McapReadError) as exc:
         return _fail(str(exc))
     except tp.TransportError as exc:

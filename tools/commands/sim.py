@@ -11,7 +11,8 @@ from tools.commands.errors import UsageError
 from tools.commands.arg_types import run_id_arg
 from tools.commands.common import add_scenario_arguments, scenario_from_args
 from tools.commands.outputs import check_output_file, write_error_line
-from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
+from tools.commands.transport_args import add_transport_arguments
+from tools.rendezvous import joined
 from tools.progress import advance_to, progress_bar
 from tools.scenario import resolve
 
@@ -82,9 +83,10 @@ def run(args) -> int:
         span = cfg.sim.trajectory.span_days
         bar = progress_bar(span, desc="sim", unit="day")
         try:
-            counts = publish_run(run_, args.run_id, transport_config_from_args(args), consumers=consumers,
-                                 credit_role="fsw" if "fsw" in consumers else None, window=args.window,
-                                 rate=args.rate, progress=lambda fraction: advance_to(bar, fraction * span))
+            with joined(args, args.run_id, "sim") as transport:
+                counts = publish_run(run_, args.run_id, transport, consumers=consumers,
+                                     credit_role="fsw" if "fsw" in consumers else None, window=args.window,
+                                     rate=args.rate, progress=lambda fraction: advance_to(bar, fraction * span))
         except tp.TransportError as exc:
             bar.close()
             print(f"navbank sim: {exc}", file=sys.stderr)
