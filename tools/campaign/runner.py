@@ -158,6 +158,8 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
                         row = dataclasses.replace(result.row, campaign=plan.name, executor=executor.name)
                         if result.weights is not None and row.status == "ok":
                             store.save_weights(task.id, result.weights)
+                        if result.mcap is not None and row.status == "ok":
+                            store.save_mcap(task.id, result.mcap)
                     store.append(row)
                     ok = row.status == "ok"
                     out.finished += 1

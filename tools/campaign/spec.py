@@ -44,7 +44,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from fsw.config import GatingEntry
 from fsw.interface import typed
@@ -176,6 +176,12 @@ class SeedPlan:
         return range(self.base, self.base + self.count)
 
 
+KeepMcap = Literal["none", "failed", "detected", "all"]
+KEEP_MCAP_DOC = ("runs that keep an MCAP recording (mcap/<id>.mcap), for navbank report and replay --rerun: none; "
+                 "failed (the detector missed the injected fault, declared a false alarm or the wrong class); "
+                 "detected (an anomaly was declared); all")
+
+
 @dataclass(frozen=True)
 class CampaignConfig:
     """A fault-injection campaign."""
@@ -186,6 +192,7 @@ class CampaignConfig:
     seeds: SeedPlan = spec(default_factory=SeedPlan, doc="seeds per cell")
     onset_day: float | None = spec(None, doc="default onset of preset faults", unit="day", ge=0.0)
     overrides: dict[str, Any] = spec(default_factory=dict, doc="scenario keys changed in every run (dotted or nested)")
+    keep_mcap: KeepMcap = spec("none", doc=KEEP_MCAP_DOC)
     keep_weights: tuple[str, ...] = spec(
         (), doc="gating networks whose weight histories every run stores (weights/<network>/<id>.npz); "
         "each is added to the gating list with defaults if absent"
