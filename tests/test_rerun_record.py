@@ -28,6 +28,9 @@ def test_rerun_out_writes_a_run_that_report_reads_and_reruns_identically(rerun_d
     text = capsys.readouterr().out
     assert code == 1  # the change shows up
     assert re.search(r"\(20\d\d-\d\d-\d\dT\d\d:\d\d:\d\d UTC, t_s \d+\.\d\)", text), text[-1500:]
+    # epochs in the examples are dates too, never raw TDB seconds
+    declared = next(ln for ln in text.splitlines() if "/fsw/anomaly declared_s:" in ln)
+    assert re.search(r"e\.g\. None vs 20\d\d-\d\d-\d\dT\d\d:\d\d:\d\d at", declared), declared
     assert "the detector's calibration was made for chi2 as recorded; this re-run changes batch_size 300 -> 200" in text
     mcap = rerun_dir / "run.mcap"
     # the recorded ground side is kept, the FSW side is the re-run's
