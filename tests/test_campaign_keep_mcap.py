@@ -11,7 +11,7 @@ import pytest
 
 from ground.mcap_io.reader import read_attachments, summary
 from ground.report.summary_types import RunSummary
-from tests.test_summary_types import DETECTION, RUN_SUMMARY
+from test_summary_types import DETECTION, RUN_SUMMARY
 from tools.campaign.run_mcap import keeps
 from tools.campaign.store import read_rows
 from tools.cli import main

@@ -6,7 +6,7 @@ import io
 import json
 
 from ground.report.summary_types import RunSummary
-from tests.test_summary_types import RUN_SUMMARY
+from test_summary_types import RUN_SUMMARY
 from tools.progress import advance_to, fsw_progress, progress_bar
 from tools.summary import describe
 

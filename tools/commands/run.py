@@ -132,6 +132,8 @@ def run(args) -> int:
     code = 0
     try:
         launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo)
+        if bar is not None:
+            advance_to(bar, bar.total)  # the last measurement may come a little before the span's end
     except RunFailed as exc:
         status, reason, code = "failed", str(exc), 1
         print(f"navbank run: {exc}", file=sys.stderr)

@@ -23,7 +23,7 @@ def add_arguments(p) -> None:
 
 def _header(name: str, description: str) -> str:
     return (f"Scenario {name}: {description}\n"
-            f"Every key with its meaning, [unit] and (range); all keys are optional, see docs/scenarios.md.\n"
+            f"Every key with its meaning, [unit] and (range); a key left out keeps its default (docs/scenarios.md).\n"
             f"Save, edit and run: navbank run --scenario FILE")
 
 
