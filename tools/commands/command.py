@@ -12,7 +12,8 @@ from fsw.interface.auth import MessageAuthenticator
 from fsw.interface.messages import TELECOMMANDS, Telecommand
 from tools.commands.arg_types import run_id_arg
 from tools.commands.errors import UsageError
-from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
+from tools.commands.transport_args import add_transport_arguments
+from tools.rendezvous import joined
 
 NAME = "command"
 HELP = "send a telecommand to a running FSW (signed with the run's key when given --credentials)"
@@ -40,11 +41,12 @@ def run(args) -> int:
                           param=args.param, value=args.value)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    cfg = transport_config_from_args(args, "operator")
-    signer = MessageAuthenticator(cfg.credentials.run_key) if cfg.credentials is not None else None
     try:
-        with tp.open_session(cfg) as session:
-            reply = tp.send_command(session, args.run_id, cmd, timeout_s=args.timeout, authenticator=signer)
+        # without endpoint options: the run's processes on this host, as they announced themselves
+        with joined(args, args.run_id, "operator", announce=False, name="command") as cfg:
+            signer = MessageAuthenticator(cfg.credentials.run_key) if cfg.credentials is not None else None
+            with tp.open_session(cfg) as session:
+                reply = tp.send_command(session, args.run_id, cmd, timeout_s=args.timeout, authenticator=signer)
     except tp.TransportError as exc:
         print(f"navbank command: {exc}", file=sys.stderr)
         return 1

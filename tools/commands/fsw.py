@@ -9,7 +9,8 @@ import fsw.transport as tp
 from fsw.app import run_fsw, stderr_progress
 from tools.commands.arg_types import run_id_arg
 from tools.commands.common import add_scenario_arguments, scenario_from_args
-from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
+from tools.commands.transport_args import add_transport_arguments
+from tools.rendezvous import joined
 from tools.scenario import resolve
 
 NAME = "fsw"
@@ -34,8 +35,9 @@ def run(args) -> int:
     cfg, _ = resolve(scenario_from_args(args), args.seed)
     consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
     try:
-        counts = run_fsw(cfg.fsw, args.run_id, transport_config_from_args(args, "fsw"), consumers=consumers,
-                         progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout)
+        with joined(args, args.run_id, "fsw") as transport:
+            counts = run_fsw(cfg.fsw, args.run_id, transport, consumers=consumers,
+                             progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout)
     except tp.TransportError as exc:
         print(f"navbank fsw: {exc}", file=sys.stderr)
         return 1

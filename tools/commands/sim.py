@@ -9,9 +9,11 @@ import fsw.transport as tp
 from sim.stream import generate
 from tools.commands.errors import UsageError
 from tools.commands.arg_types import run_id_arg
-from tools.commands.common import ProgressBar, add_scenario_arguments, scenario_from_args
+from tools.commands.common import add_scenario_arguments, scenario_from_args
 from tools.commands.outputs import check_output_file, write_error_line
 from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
+from tools.rendezvous import joined
+from tools.progress import advance_to, progress_bar
 from tools.scenario import resolve
 
 NAME = "sim"
@@ -60,7 +62,8 @@ def run(args) -> int:
         if not path.endswith((".jsonl", ".mcap")):
             raise UsageError(f"--out {path}: expected a .jsonl or .mcap file name")
         check_output_file(path)  # before the simulation: exit 2 for a file we could not write
-    transport_cfg = transport_config_from_args(args, "sim") if args.run_id is not None else None  # bad options: exit 2 now
+    if args.run_id is not None:
+        transport_config_from_args(args, "sim")  # bad transport options or credentials: exit 2 before generating
     cfg, seed = resolve(scenario_from_args(args), args.seed)
     t0 = time.perf_counter()
     run_ = generate(cfg.sim, seed=seed)
@@ -79,13 +82,18 @@ def run(args) -> int:
         from sim.app import publish_run
 
         consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
+        span = cfg.sim.trajectory.span_days
+        bar = progress_bar(span, desc="sim", unit="day")
         try:
-            counts = publish_run(run_, args.run_id, transport_cfg, consumers=consumers,
-                                 credit_role="fsw" if "fsw" in consumers else None, window=args.window,
-                                 rate=args.rate, progress=ProgressBar("sim"))
+            with joined(args, args.run_id, "sim") as transport:
+                counts = publish_run(run_, args.run_id, transport, consumers=consumers,
+                                     credit_role="fsw" if "fsw" in consumers else None, window=args.window,
+                                     rate=args.rate, progress=lambda fraction: advance_to(bar, fraction * span))
         except tp.TransportError as exc:
+            bar.close()
             print(f"navbank sim: {exc}", file=sys.stderr)
             return 1
+        bar.close()
         print(f"sim: published {counts.get('measurements', 0)} measurements as run {args.run_id}; "
               f"process CPU {time.process_time():.1f} s", file=sys.stderr)
     return 0
