@@ -212,3 +212,35 @@ def test_credentials_configure_tls_and_the_acl_and_refuse_plain_endpoints(creds)
         T.TransportConfig(credentials=c)  # the default listener is plain TCP
     with pytest.raises(ValueError, match="tls/"):
         T.TransportConfig(listen=("tls/127.0.0.1:0",), connect=("tcp/127.0.0.1:7447",), credentials=c)
+
+
+def test_processes_with_credentials_announce_and_join_only_tls_endpoints(creds, tmp_path, monkeypatch):
+    import argparse
+    import os
+
+    from tools import rendezvous
+
+    run_dir, _ = creds
+    xdg = tmp_path / "xdg"
+    xdg.mkdir(mode=0o700)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(xdg))
+    base = dict(listen=None, connect=None, client=False, zenoh_config=None, no_gossip=False, connect_timeout=10.0,
+                role=None)
+    plain = argparse.Namespace(**base, credentials=None)
+    secure = argparse.Namespace(**base, credentials=str(run_dir))
+    with rendezvous.joined(plain, "mixed", "ground") as p:
+        assert p.listen[0].startswith("tcp/") and p.credentials is None
+        # the announcing processes would be other processes: pretend the file is another pid's
+        (f,) = (xdg / "navbank" / "mixed").glob("ground-*.json")
+        entry = json.loads(f.read_text())
+        f.write_text(json.dumps({**entry, "pid": os.getppid()}))
+        with rendezvous.joined(secure, "mixed", "fsw", announce=False) as s:
+            assert s.listen[0].startswith("tls/") and s.credentials is not None and s.credentials.role == "fsw"
+            assert s.connect == ()  # the plain TCP peer is not joined
+        with rendezvous.joined(plain, "mixed", "sim", announce=False) as q:
+            assert q.connect == (p.listen[0],)
+        with rendezvous.joined(secure, "mixed", "fsw") as s:
+            (f,) = (xdg / "navbank" / "mixed").glob("fsw-*.json")
+            f.write_text(json.dumps({**json.loads(f.read_text()), "pid": os.getppid()}))
+            with rendezvous.joined(secure, "mixed", "sim", announce=False) as t:
+                assert t.connect == (s.listen[0],)  # the TLS peer, and only it
