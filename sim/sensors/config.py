@@ -11,13 +11,18 @@ Default noise levels and their sources:
   diameter) for Mars, whose centre is found from a limb fit whose error grows with the disc.
   Lubey & Ely 2022 Table 2 calls its 0.2/0.3 px "small" bias "on the order of uncertainty in the
   measurements", which this matches.
-* Attitude knowledge 5 urad per axis (1-sigma): star-tracker class, ~0.2 px at 24 urad/px.
+* Attitude knowledge from the stars in each image (``attitude_from: stars``, see
+  :mod:`sim.sensors.optical`): with stars to V = 10.5, ~27 in the 1.4 deg field on average (Liebe
+  2002), 0.3 px centroids at the limit, the fit is ~1 urad cross-boresight (0.04 px) and ~0.1 mrad
+  in roll. ``attitude_from: fixed`` keeps a constant 5 urad per axis (star-tracker class).
+* Roll: sun-keeping (line axis away from the Sun) within a +-10 deg deadband.
 
 Default schedule: three tracking passes a day, 3 h each, every 8 h from the scenario start,
 each flown by the station (Goldstone, Canberra, Madrid) that sees the spacecraft highest over
 the pass; range every 10 min and Doppler every 60 s while in a pass and above 10 deg; one
 image every 30 min cycling Mars, Phobos, Deimos (the next visible target if the scheduled one
-is not). Over 45 days: ~24,000 Doppler, ~2,400 range and ~2,100 optical measurements.
+is not), and one of a visible asteroid beacon every 2 h. Over 45 days: ~24,000 Doppler, ~2,500
+range and ~2,700 optical measurements (~2,160 of the Mars system, 540 of beacons).
 
 Pass plan (``pass_plan``, replaces the daily schedule when given): each entry is one station
 with its own periodic passes, e.g. Chaer et al.'s (1998) Mars Pathfinder cruise tracking, one 4-hour pass

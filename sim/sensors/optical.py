@@ -216,7 +216,6 @@ def simulate_optical(
     groups = ((tuple(cfg.targets), np.flatnonzero(~is_beacon)), (beacon_names, np.flatnonzero(is_beacon)))
     names_out: list[np.ndarray] = []
     rows: list[np.ndarray] = []
-    picks: list[np.ndarray] = []
     results: list[dict[str, np.ndarray]] = []
     for names, slots in groups:
         nt, ns = len(names), slots.size
@@ -278,21 +277,20 @@ def simulate_optical(
         k = np.flatnonzero(has)
         names_out.append(np.array(names, dtype=object)[pick[k]])
         rows.append(slots[k])
-        picks.append(pick[k])
         results.append({key: v[pick[k], k] for key, v in res.items()})
 
     if not rows:
         return _empty()
     slot = np.concatenate(rows)
-    name = np.concatenate(names_out)
+    target = np.concatenate(names_out)
     cat = {key: np.concatenate([r[key] for r in results]) for key in results[0]}
     by_time = np.argsort(t[slot], kind="stable")
-    slot, name = slot[by_time], name[by_time]
+    slot, target = slot[by_time], target[by_time]
     cat = {key: v[by_time] for key, v in cat.items()}
 
     dpx = cat["diam"]
-    is_mars = name == "mars"
-    is_bcn = np.array([str(v) in asteroids.BY_NAME for v in name], dtype=bool)
+    is_mars = target == "mars"
+    is_bcn = np.array([str(v) in asteroids.BY_NAME for v in target], dtype=bool)
     sig_c = np.where(is_mars, np.maximum(cfg.mars_sigma_floor_px, cfg.mars_sigma_fraction * dpx), cfg.moon_sigma_px)
     sig_c = np.where(is_bcn, np.maximum(cfg.moon_sigma_px, point_sigma_px(cfg, cat["mag"])), sig_c)
     s = att_sigma[slot]
@@ -303,7 +301,7 @@ def simulate_optical(
     quats = np.array([matrix_to_quat(m) for m in cat["known"]]).reshape(-1, 4)
     return OpticalData(
         t_rx=t[slot],
-        target=name,
+        target=target,
         clean=cat["clean"],
         noise=measured - cat["clean"],
         sigma=np.column_stack((sig_sample, sig_line)),
