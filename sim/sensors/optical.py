@@ -95,9 +95,9 @@ class OpticalData:
     sigma: np.ndarray  # (N, 2) px
     attitude_q: np.ndarray  # (N, 4) known camera -> ICRF, scalar first
     apparent_diameter_px: np.ndarray  # (N,)
-    slot: np.ndarray  # (N,) image slot index (Mars-system and beacon slots, in time order)
+    slot: np.ndarray  # (N,) slot index: the Mars-system slots, then the beacon slots
     attitude_sigma: np.ndarray  # (N, 3) rad
-    stars: np.ndarray  # (N,)
+    stars: np.ndarray  # (N,) stars in the fit (-1: attitude_from fixed)
     roll: np.ndarray  # (N,) rad
 
     def __len__(self) -> int:
