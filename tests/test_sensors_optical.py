@@ -152,3 +152,35 @@ def test_optical_noise_has_the_reported_sigma(sim_run):
     # chi-square with n dof: mean n, sd sqrt(2n); allow 4 sd.
     assert abs(chi2 - n) < 4 * math.sqrt(2 * n)
     assert abs(float(np.mean(z))) < 4 / math.sqrt(n)
+
+
+class BeaconScene(FakeScene):
+    """FakeScene plus one asteroid beacon fixed at ``beacon`` (barycentric)."""
+
+    def __init__(self, mars, sun, beacon):
+        super().__init__(mars, sun, {})
+        self._beacon = np.asarray(beacon, float)
+
+    def target(self, name):
+        if name == "vesta":
+            return lambda t: np.tile(self._beacon, (np.size(t), 1))
+        return super().target(name)
+
+
+def test_beacon_visibility_rules():
+    au = 1.495978707e8
+    mars = np.array([2.0e6, 0.0, 0.0])
+    sun = np.array([-1.0, -0.3, 0.0]) * au  # behind the spacecraft: full phase for beacons ahead
+    kw = dict(targets=(), beacons=("vesta",), beacon_interval_s=1800.0, first_beacon_offset_s=900.0)
+    far_off = np.array([0.0, 1.5 * au, 0.3 * au])  # 80 deg from Mars, V ~ 6.6
+    assert len(_run(BeaconScene(mars, sun, far_off), **kw)) == 10
+    assert len(_run(BeaconScene(mars, sun, far_off), limit_mag=6.0, **kw)) == 0  # too faint
+    near_mars = 1.5 * au * np.array([1.0, math.tan(math.radians(1.0)), 0.0])  # 1 deg from Mars
+    assert len(_run(BeaconScene(mars, sun, near_mars), **kw)) == 0
+    # Mars 10,000 km away is 20 deg in radius: a beacon 5 deg from its centre is behind the disc
+    close = np.array([1.0e4, 0.0, 0.0])
+    behind = 1.5 * au * np.array([1.0, math.tan(math.radians(5.0)), 0.0])
+    assert len(_run(BeaconScene(close, sun, behind), beacon_mars_keepout_deg=2.0, **kw)) == 0
+    # a beacon opposite the Sun's side at large phase: Sun beyond the beacon
+    sun_behind_beacon = far_off * 3.0
+    assert len(_run(BeaconScene(mars, sun_behind_beacon, far_off), sun_exclusion_deg=0.0, **kw)) == 0

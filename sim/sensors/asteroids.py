@@ -115,4 +115,5 @@ def apparent_magnitude(name: str, sun_dist_km: np.ndarray, obs_dist_km: np.ndarr
     phi2 = np.exp(-1.87 * th**1.22)
     r = np.asarray(sun_dist_km, dtype=float) / _AU_KM
     d = np.asarray(obs_dist_km, dtype=float) / _AU_KM
-    return el.H + 5.0 * np.log10(r * d) - 2.5 * np.log10((1.0 - el.G) * phi1 + el.G * phi2)
+    with np.errstate(divide="ignore"):  # fully back-lit (alpha = 180 deg): no light, V = +inf
+        return el.H + 5.0 * np.log10(r * d) - 2.5 * np.log10((1.0 - el.G) * phi1 + el.G * phi2)

@@ -52,7 +52,8 @@ Visibility rules (all must hold):
 3. Occultation: a moon farther than Mars and within Mars' apparent radius is hidden.
 4. Glare: a moon closer (in angle) to Mars' centre than ``glare_factor`` Mars apparent radii
    plus ``glare_margin_px`` is lost in Mars' glare (this includes transits across the disc);
-   a beacon within ``beacon_mars_keepout_deg`` of Mars is lost in its stray light.
+   a beacon within ``beacon_mars_keepout_deg`` of Mars (or within the moons' glare limit, when
+   that is larger: behind or beside a near Mars' disc) is lost in its stray light.
 5. Beacons: phase angle (Sun-beacon-spacecraft) at most ``max_phase_deg`` and V magnitude (H, G
    system) at most ``limit_mag``.
 6. Stars: at least ``min_stars`` stars in the field (``attitude_from: stars``).
@@ -250,7 +251,9 @@ def simulate_optical(
                 ok &= np.all((meas - half[:, None] >= lo) & (meas + half[:, None] <= hi), axis=1)
             elif name in asteroids.BY_NAME:
                 ok &= np.all((meas >= lo) & (meas <= hi), axis=1)
-                ok &= sep >= np.radians(cfg.beacon_mars_keepout_deg)
+                # near Mars the disc itself (and its glare) is larger than the keep-out cone
+                ok &= sep >= np.maximum(np.radians(cfg.beacon_mars_keepout_deg),
+                                        cfg.glare_factor * rho_mars[slots] + cfg.glare_margin_px / f_px)
                 to_sun = r_sun[slots] - pos  # light left the beacon at t - tau; the Sun barely moves
                 phase = np.arccos(np.clip(np.einsum("ij,ij->i", _unit(to_sun), -u), -1.0, 1.0))
                 mag = asteroids.apparent_magnitude(name, np.linalg.norm(to_sun, axis=1), np.linalg.norm(d, axis=1), phase)
