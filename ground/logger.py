@@ -48,6 +48,7 @@ class LogResult:
     unknown: dict[str, int] = field(default_factory=dict)  # messages on topics outside the ICD
     invalid: dict[str, int] = field(default_factory=dict)  # payloads that failed strict decoding
     gaps: dict[str, int] = field(default_factory=dict)  # publisher sequence numbers never received
+    duplicates: dict[str, int] = field(default_factory=dict)  # samples received again (same topic and number): dropped
     finished: tuple[str, ...] = ()  # producers whose end-of-run was fully recorded
 
     @property
@@ -58,7 +59,8 @@ class LogResult:
         lines = [f"navbank ground log: {self.total} messages -> {self.path} ({self.ended_by}, {self.elapsed_s:.1f} s)"]
         width = max((len(t) for t in self.counts), default=0)
         lines += [f"  {t:<{width}}  {n:>9}" for t, n in sorted(self.counts.items())]
-        for label, table in (("unknown topics", self.unknown), ("invalid payloads", self.invalid), ("gaps (lost)", self.gaps)):
+        for label, table in (("unknown topics", self.unknown), ("invalid payloads", self.invalid), ("gaps (lost)", self.gaps),
+                             ("duplicates (dropped)", self.duplicates)):
             if table:
                 lines.append(f"  {label}: " + ", ".join(f"{t}={n}" for t, n in sorted(table.items())))
         if self.finished:
@@ -150,7 +152,9 @@ def run_logger(
     t0 = time.monotonic()
     ended_by = "stop"
     with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=handle_signals) as life:
-        sub = life.subscriber(("**",), decode=False, role="ground", capacity=capacity)
+        # a producer that resends after a restart (the simulator to a restarted FSW, a restarted FSW
+        # its telemetry since its checkpoint) repeats sequence numbers: recorded once, counted
+        sub = life.subscriber(("**",), decode=False, role="ground", capacity=capacity, dedupe=True)
         with McapRecorder(out_path, flush_interval_s=flush_interval_s, chunk_size=chunk_size) as rec:
             run_info = {
                 "run_id": run_id,
@@ -201,13 +205,15 @@ def run_logger(
                 counts=dict(rec.counts),
                 unknown=write.unknown,
                 invalid=write.invalid,
-                gaps=dict(sub.gaps),
+                gaps={t: n for t, n in sub.gaps.items() if n},
+                duplicates=dict(sub.duplicates),
                 finished=finished,
             )
             rec.add_metadata(
                 "navbank.logger",
                 {"ended_by": ended_by, "counts": result.counts, "unknown": result.unknown,
-                 "invalid": result.invalid, "gaps": result.gaps, "finished": list(finished)},
+                 "invalid": result.invalid, "gaps": result.gaps, "duplicates": result.duplicates,
+                 "finished": list(finished)},
             )
         if ended_by == "end-of-run":
             life.let_replies_leave()

@@ -19,7 +19,8 @@ from typing import Callable, Sequence
 import fsw.transport as tp
 from fsw.astro.time import tdb_to_unix
 from fsw.interface import topics
-from fsw.interface.messages import RunState, RunStatus, Stamp
+from fsw.interface.messages import Measurement, RunState, RunStatus, Stamp
+from sim.resend import ResendingPublisher
 from sim.stream import SimRun
 
 
@@ -56,6 +57,8 @@ def publish_run(
             topics.SIM_TRUTH: life.publisher(topics.SIM_TRUTH),
             topics.SIM_FAULTS: life.publisher(topics.SIM_FAULTS),
         }
+        # a restarted FSW is sent again what came after its checkpoint (sim/resend.py)
+        measurements = ResendingPublisher(pubs[topics.SIM_MEASUREMENTS])
         life.put(topics.SIM_STATUS, _status(run, run_id, "start", {"measurements": len(run.measurements)}, run.t_start))
         wall0 = time.monotonic()
         n = max(len(run.measurements), 1)
@@ -67,15 +70,30 @@ def publish_run(
                 delay = due - time.monotonic()
                 if delay > 0:
                     time.sleep(delay)
-            pubs[topic].put(msg)
-            if topic == topics.SIM_MEASUREMENTS:
-                sent += 1
-                if progress is not None and time.monotonic() >= next_progress:
-                    progress(sent / n)
-                    next_progress = time.monotonic() + 1.0
+            if not isinstance(msg, Measurement):
+                pubs[topic].put(msg)
+                continue
+            measurements.put(msg)
+            sent += 1
+            if progress is not None and time.monotonic() >= next_progress:
+                progress(sent / n)
+                next_progress = time.monotonic() + 1.0
         counts = tp.end_of_run_counts(pubs.values(), measurements=pubs[topics.SIM_MEASUREMENTS].count)
-        life.end_of_stream(topics.SIM_STATUS, _status(run, run_id, "end-of-run", counts, run.t_end), consumers,
-                           timeout_s=max(wait_s, 30.0))
+        end = _status(run, run_id, "end-of-run", counts, run.t_end)
+        life.announce_end(topics.SIM_STATUS, end)
+
+        def on_reply(role: str, reply: RunStatus) -> None:
+            for window in credit:
+                if role == window.role:
+                    window.observe(reply)
+
+        while True:
+            try:
+                life.confirm_end(end, consumers, timeout_s=max(wait_s, 30.0), on_reply=on_reply)
+                break
+            except tp.ConsumerRestarted as restart:  # the FSW restarted after the last measurement went out
+                measurements.rewind(restart)
+        counts = dict(counts, resent=measurements.resent, consumer_restarts=len(measurements.rewinds))
         if progress is not None:
             progress(1.0)
         return counts

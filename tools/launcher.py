@@ -118,8 +118,39 @@ def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[st
         return [*base, "ground", "log", "--run-id", run_id, "--out", str(out_dir / "run.mcap"), "--no-validate",
                 "--attach", str(cfg_path), *net]
     if role == "fsw":
-        return [*base, "fsw", "--scenario", str(cfg_path), "--run-id", run_id, *net]
+        return [*base, "fsw", "--scenario", str(cfg_path), "--run-id", run_id, "--checkpoint", str(out_dir / CHECKPOINT),
+                *net]
     return [*base, "sim", "--scenario", str(cfg_path), "--run-id", run_id, *net]
+
+
+#: The FSW's checkpoint file in the run directory (``fsw.checkpoint`` sets the cadence).
+CHECKPOINT = "fsw.ckpt"
+#: Restarts of a dying FSW before the run is failed.
+DEFAULT_MAX_RESTARTS = 3
+
+
+@dataclass(frozen=True)
+class Restart:
+    """One restart of a supervised process, as the launcher saw it."""
+
+    process: str
+    exit_code: int  # of the process that died (negative: killed by that signal)
+    at_unix_s: float
+    at_wall_s: float  # seconds since the launcher started the run
+    checkpoint_measurements: int | None  # measurements the checkpoint had taken (it goes on after them)
+    checkpoint_t_s: float | None  # mission time (TDB s past J2000) of the checkpoint's newest measurement
+
+
+def _restart_record(child: Child, ckpt: Path, wall_s: float) -> Restart:
+    from fsw.core.checkpoint import CheckpointError, read_header
+
+    try:
+        header = read_header(ckpt)
+        taken: int | None = header.measurements_taken
+        t_s: float | None = header.t_s
+    except CheckpointError:
+        taken = t_s = None  # the new process refuses it with one line, and the run fails with it
+    return Restart(child.role, int(child.proc.returncode), time.time(), wall_s, taken, t_s)
 
 
 #: How long a producer (simulator, FSW) may take to stop before it is killed; the logger, stopped
@@ -143,10 +174,14 @@ def _stop(children: list[Child]) -> None:
 
 
 def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float = 3600.0,
-           echo: Callable[[str], None] | None = None) -> dict[str, int]:
+           echo: Callable[[str], None] | None = None, max_restarts: int = DEFAULT_MAX_RESTARTS,
+           restarts: list[Restart] | None = None) -> dict[str, int]:
     """Run the three processes for ``cfg`` (already resolved: seed and initial state fixed).
 
-    Returns the exit code per role; raises :class:`RunFailed` if any failed or time ran out."""
+    An FSW that dies is restarted from its last checkpoint, at most ``max_restarts`` times in all;
+    each restart is appended to ``restarts`` (also when the run then fails). Returns the exit code
+    per role; raises :class:`RunFailed` if a process failed for good or time ran out."""
+    restarts = [] if restarts is None else restarts
     out_dir.mkdir(parents=True, exist_ok=True)
     cfg_path = out_dir / "config.yaml"
     cfg_path.write_text(to_yaml(cfg, complete=True), encoding="utf-8")
@@ -156,20 +191,38 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
     children: list[Child] = []
     interrupted = threading.Event()
     old = {s: signal.signal(s, lambda *_: interrupted.set()) for s in (signal.SIGINT, signal.SIGTERM)}
+    wall0 = time.monotonic()
+
+    def start(role: str, extra: tuple[str, ...] = (), log_name: str | None = None) -> Child:
+        proc = subprocess.Popen([*_command(role, cfg_path, run_id, out_dir, eps), *extra], stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True, env=env,
+                                start_new_session=True)
+        child = Child(role, proc, out_dir / (log_name or f"{role}.log"))
+        child.thread = threading.Thread(target=_pump, args=(child, proc.stdout, echo if role == "fsw" else None),
+                                        daemon=True)
+        child.thread.start()
+        return child
+
     try:
         for role in ROLES:
-            proc = subprocess.Popen(_command(role, cfg_path, run_id, out_dir, eps), stdout=subprocess.PIPE,
-                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True, env=env,
-                                    start_new_session=True)
-            child = Child(role, proc, out_dir / f"{role}.log")
-            child.thread = threading.Thread(target=_pump, args=(child, proc.stdout, echo if role == "fsw" else None),
-                                            daemon=True)
-            child.thread.start()
-            children.append(child)
+            children.append(start(role))
         deadline = time.monotonic() + timeout_s
         while True:
             codes = {c.role: c.proc.poll() for c in children}
             failed = [c for c in children if codes[c.role] not in (None, 0)]
+            restartable = [c for c in failed if c.role == "fsw" and len(restarts) < max_restarts
+                           and not interrupted.is_set() and (out_dir / CHECKPOINT).is_file()]
+            if restartable:
+                c = restartable[0]
+                if c.thread:
+                    c.thread.join(timeout=2)
+                restarts.append(_restart_record(c, out_dir / CHECKPOINT, time.monotonic() - wall0))
+                if echo is not None:
+                    echo(f"navbank run: the fsw process exited with code {c.proc.returncode} ({last_words(c.tail)}); "
+                         f"restarting it from its checkpoint (restart {len(restarts)} of at most {max_restarts})")
+                children[children.index(c)] = start(
+                    "fsw", ("--resume", str(out_dir / CHECKPOINT)), f"fsw.restart{len(restarts)}.log")
+                continue
             if failed:
                 c = failed[0]
                 _stop(children)
@@ -178,7 +231,8 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
                         ch.thread.join(timeout=2)
                 why = last_words(c.tail)
                 log = f"{c.log_path} (not written: {c.log_error})" if c.log_error else str(c.log_path)
-                raise RunFailed(f"the {c.role} process exited with code {codes[c.role]} ({why}); "
+                after = f" after {len(restarts)} restart(s)" if c.role == "fsw" and restarts else ""
+                raise RunFailed(f"the {c.role} process exited with code {codes[c.role]} ({why}){after}; "
                                 f"the others were stopped. Log: {log}")
             if all(code == 0 for code in codes.values()):
                 break

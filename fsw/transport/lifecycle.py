@@ -125,6 +125,13 @@ class ProcessLifecycle:
             raise TypeError(f"{topic} was declared with a publisher of raw payloads, not ICD messages")
         return pub
 
+    def restore_publishers(self, counts: dict[str, int]) -> None:
+        """Declare the publishers of ``counts``' topics with their sequence counters where a
+        checkpoint left them: what a restarted process publishes again carries the numbers it
+        carried the first time (so the logger recognises it as a duplicate)."""
+        for topic, n in counts.items():
+            self.publisher(topic).count = int(n)
+
     def raw_publisher(self, topic: str, make: Callable[[str], TopicPublisher]) -> TopicPublisher:
         """The publisher ``make(topic)`` builds (e.g. of recorded payloads on a topic outside the
         ICD), declared on first use and closed with the lifecycle."""
@@ -176,14 +183,15 @@ class ProcessLifecycle:
         self.publisher(topic).put(status)
 
     def confirm_end(
-        self, status: RunStatus, consumers: Iterable[str], timeout_s: float = 30.0, *, require_all: bool = True
+        self, status: RunStatus, consumers: Iterable[str], timeout_s: float = 30.0, *, require_all: bool = True,
+        on_reply: Callable[[str, RunStatus], None] | None = None,
     ) -> dict[str, bool]:
         """Drain into ``consumers`` until each confirms it has what ``status`` announces.
 
         Returns whether each consumer confirmed; with ``require_all`` a consumer that did not
-        raises :class:`TransportError` naming it.
+        raises :class:`TransportError` naming it. ``on_reply`` as in :func:`fsw.transport.flow.drain`.
         """
-        done = flow.drain(self.session, self.run_id, status, consumers, timeout_s=timeout_s)
+        done = flow.drain(self.session, self.run_id, status, consumers, timeout_s=timeout_s, on_reply=on_reply)
         missing = [c for c, ok in done.items() if not ok]
         if require_all and missing:
             raise TransportError(f"no end-of-stream confirmation from {', '.join(missing)}")

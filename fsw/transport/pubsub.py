@@ -118,6 +118,29 @@ def end_of_run_counts(publishers: Iterable[TopicPublisher], **extra: int) -> dic
     return out
 
 
+class SeenSequences:
+    """The sequence numbers seen on one topic, one bit each (a run's topics stay in the millions)."""
+
+    def __init__(self) -> None:
+        self._bits = bytearray()
+
+    def add(self, seq: int) -> bool:
+        """Mark ``seq`` seen; False if it was seen already."""
+        if seq < 0:
+            return True  # not a sequence number of ours: never a duplicate
+        byte, bit = divmod(seq, 8)
+        if byte >= len(self._bits):
+            self._bits.extend(bytes(max(byte + 1 - len(self._bits), len(self._bits))))
+        if self._bits[byte] >> bit & 1:
+            return False
+        self._bits[byte] |= 1 << bit
+        return True
+
+    def __contains__(self, seq: int) -> bool:
+        byte, bit = divmod(seq, 8)
+        return 0 <= byte < len(self._bits) and bool(self._bits[byte] >> bit & 1)
+
+
 @dataclass(frozen=True, slots=True)
 class Received:
     """One sample taken from a :class:`Subscriber`."""
@@ -154,6 +177,8 @@ class Subscriber:
         decode: bool = True,
         role: str | None = None,
         capacity: int = 8192,
+        resume: dict[str, int] | None = None,
+        dedupe: bool = False,
     ):
         if isinstance(topic_exprs, str):
             topic_exprs = (topic_exprs,)
@@ -175,6 +200,19 @@ class Subscriber:
         self.acknowledged: dict[str, bool] = {}
         self.last_t_s = 0.0
         self._next_seq: dict[str, int] = {}
+        # A restarted consumer takes a topic again from where its checkpoint stood: the count of
+        # what it had taken, and nothing but the next sequence number in order (what the producer
+        # sent before it heard of the restart is discarded; it sends it again).
+        self._in_order = dict(resume or {})
+        for topic, n in self._in_order.items():
+            self.received[topic] = self._next_seq[topic] = int(n)
+        self.discarded: dict[str, int] = {}
+        #: with ``dedupe``, the sequence numbers seen per topic: a sample seen before (a producer
+        #: that resends after a restart) is dropped and counted in ``duplicates``
+        self.seen: dict[str, SeenSequences] | None = {} if dedupe else None
+        self.duplicates: dict[str, int] = {}
+        #: further counters every progress reply carries (e.g. a restarted consumer's incarnation)
+        self.progress_extra: dict[str, int] = {}
         self._subs: list[Any] = []
         self._queryable = None
         self._rr = 0
@@ -245,12 +283,23 @@ class Subscriber:
         schema = wire.schema_of(sample.encoding)
         pub_seq = wire.sequence_of(sample.attachment)
         with self._lock:
+            if topic in self._in_order and pub_seq != self._next_seq[topic]:
+                self.discarded[topic] = self.discarded.get(topic, 0) + 1
+                return None
+            if self.seen is not None and pub_seq is not None:
+                seen = self.seen.setdefault(topic, SeenSequences())
+                if not seen.add(pub_seq):
+                    self.duplicates[topic] = self.duplicates.get(topic, 0) + 1
+                    return None
             self.received[topic] = self.received.get(topic, 0) + 1
             if pub_seq is not None:
                 expected = self._next_seq.get(topic)
                 if expected is not None and pub_seq > expected:
                     self.gaps[topic] = self.gaps.get(topic, 0) + (pub_seq - expected)
-                self._next_seq[topic] = pub_seq + 1
+                if self.seen is not None and expected is not None and pub_seq < expected:
+                    self.gaps[topic] = self.gaps.get(topic, 0) - 1  # a gap filled late
+                else:
+                    self._next_seq[topic] = pub_seq + 1
         message: object | None = None
         try:
             cls = topics.type_of_topic(topic)
@@ -321,9 +370,13 @@ class Subscriber:
         with query:  # drops the Query on exit so the querier is not left waiting
             try:
                 counts = self.counts()
+                counts.update(self.progress_extra)
                 payload = query.payload
                 if payload is not None and len(payload.to_bytes()) > 0:
                     status = codec.from_json(RunStatus, payload.to_bytes())
+                    if status.state == "end-of-run" and status.source not in self.end_of_run:
+                        # a consumer restarted after the producer's end-of-run went out learns it here
+                        self.end_of_run[status.source] = status
                     done = self.is_complete(status)
                     counts[COMPLETE] = int(done)
                     if done:

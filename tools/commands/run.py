@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 from typing import TYPE_CHECKING, Any
 import sys
 import time
@@ -12,7 +13,7 @@ from tools.commands.errors import UsageError
 from tools.commands.arg_types import run_id_arg
 from tools.commands.common import add_scenario_arguments, new_run_id, scenario_from_args
 from tools.commands.outputs import check_output_dir, write_error_line
-from tools.launcher import RunFailed, launch, write_summary
+from tools.launcher import DEFAULT_MAX_RESTARTS, Restart, RunFailed, launch, write_summary
 from tools.scenario import ScenarioConfig, resolve
 
 if TYPE_CHECKING:
@@ -41,6 +42,10 @@ def add_arguments(p) -> None:
                    help="budget per frame as a fraction of the scenario's (e.g. 0.25 for a quarter)")
     g.add_argument("--cpu-scale", type=float, default=None, metavar="X", help="charge X times the measured CPU (a slower flight processor)")
     p.add_argument("--timeout", type=float, default=3600.0, metavar="S", help="stop everything after S seconds (default 3600)")
+    p.add_argument("--max-restarts", type=int, default=DEFAULT_MAX_RESTARTS, metavar="N",
+                   help=f"restart a dying FSW from its last checkpoint at most N times (default {DEFAULT_MAX_RESTARTS}; 0: never)")
+    p.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
+                   help="FSW checkpoint every N measurements (default: the scenario's fsw.checkpoint.every_measurements)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
@@ -63,15 +68,40 @@ def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, c
     return dataclasses.replace(cfg, fsw=dataclasses.replace(cfg.fsw, budget=dataclasses.replace(b, **changes)))
 
 
+def _restarts_block(restarts: list[Restart], t0: float, mcap: Path) -> dict[str, Any]:
+    """The summary's ``restarts`` section: the launcher's record of each restart and the logger's
+    count of what it received twice (dropped) or never (lost)."""
+    from ground.mcap_io.reader import read_metadata
+
+    try:
+        logged = read_metadata(mcap).get("navbank.logger", {})
+    except Exception:  # a recording without the logger's closing record: nothing to add
+        logged = {}
+
+    def table(key: str) -> dict[str, int]:
+        try:
+            value = json.loads(logged.get(key, "{}"))
+        except ValueError:
+            return {}
+        return {str(k): int(v) for k, v in value.items()} if isinstance(value, dict) else {}
+
+    events = [{"process": r.process, "exit_code": r.exit_code, "at_unix_s": r.at_unix_s, "at_wall_s": r.at_wall_s,
+               "checkpoint_measurements": r.checkpoint_measurements, "checkpoint_t_s": r.checkpoint_t_s,
+               "checkpoint_day": None if r.checkpoint_t_s is None else (r.checkpoint_t_s - t0) / 86400.0}
+              for r in restarts]
+    return {"events": events, "duplicates_dropped": table("duplicates"), "gaps": table("gaps")}
+
+
 def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str | None, wall: float,
-             status: RunEnding, reason: str | None = None) -> RunSummary | dict[str, Any]:
+             status: RunEnding, reason: str | None = None, restarts: list[Restart] | None = None
+             ) -> RunSummary | dict[str, Any]:
     """The run's summary from what was recorded. A logger that died leaves run.mcap without its
     footer: what it holds is first rewritten into run.recovered.mcap. If nothing usable was
     recorded, a summary of just how the run ended."""
     from ground.mcap_io.reader import is_complete, read_messages, recover
     from ground.mcap_io.reader import summary as mcap_counts
     from ground.report.run_summary import summarize
-    from ground.report.summary_types import RunFiles
+    from ground.report.summary_types import RestartsBlock, RunFiles
 
     mcap = out / "run.mcap"
     try:
@@ -94,7 +124,8 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
             raise
         return {"run_id": run_id, "status": status, "reason": reason,
                 "summary_error": f"{type(exc).__name__}: {exc}"[:500], "files": {"mcap": str(out / "run.mcap")}}
-    return dataclasses.replace(summary, run_id=run_id, status=status, reason=reason,
+    block = None if restarts is None else RestartsBlock.from_json(_restarts_block(restarts, init.t_s, mcap))
+    return dataclasses.replace(summary, run_id=run_id, status=status, reason=reason, restarts=block,
                                files=RunFiles(mcap=str(mcap), config=str(out / "config.yaml")))
 
 
@@ -102,6 +133,13 @@ def run(args) -> int:
     from tools.summary import describe
 
     cfg = with_budget(scenario_from_args(args), args.budget_mode, args.budget, args.cpu_scale)
+    if args.max_restarts < 0:
+        raise UsageError("--max-restarts must be >= 0")
+    if args.checkpoint_every is not None:
+        if args.checkpoint_every < 0:
+            raise UsageError("--checkpoint-every must be >= 0")
+        cfg = dataclasses.replace(cfg, fsw=dataclasses.replace(cfg.fsw, checkpoint=dataclasses.replace(
+            cfg.fsw.checkpoint, every_measurements=args.checkpoint_every)))
     cfg, seed = resolve(cfg, args.seed)
     run_id = args.run_id or new_run_id()
     out = Path(args.out or Path("runs") / run_id)
@@ -113,8 +151,9 @@ def run(args) -> int:
     status: RunEnding = "complete"
     reason: str | None = None
     code = 0
+    restarts: list[Restart] = []
     try:
-        launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo)
+        launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo, max_restarts=args.max_restarts, restarts=restarts)
     except RunFailed as exc:
         status, reason, code = "failed", str(exc), 1
         print(f"navbank run: {exc}", file=sys.stderr)
@@ -126,7 +165,8 @@ def run(args) -> int:
         print(f"navbank run: {write_error_line(exc, out / 'config.yaml')}", file=sys.stderr)
         return 1
     wall = time.perf_counter() - t0
-    summary = _summary(cfg, seed, run_id, out, args.fault, wall, status, reason)
+    summary = _summary(cfg, seed, run_id, out, args.fault, wall, status, reason,
+                       restarts if args.max_restarts > 0 else None)
     try:
         path = write_summary(summary if isinstance(summary, dict) else summary.to_json(), out)
     except OSError as exc:
