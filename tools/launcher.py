@@ -125,7 +125,7 @@ def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[st
 
 #: The FSW's checkpoint file in the run directory (``fsw.checkpoint`` sets the cadence).
 CHECKPOINT = "fsw.ckpt"
-#: Restarts of a dying FSW before the run is failed.
+#: Restarts of a dying FSW (or logger) before the run is failed.
 DEFAULT_MAX_RESTARTS = 3
 
 
@@ -141,9 +141,31 @@ class Restart:
     checkpoint_t_s: float | None  # mission time (TDB s past J2000) of the checkpoint's newest measurement
 
 
+#: What is restarted when it dies: the FSW from its checkpoint, the logger on a new segment.
+RESTARTABLE = ("fsw", "ground")
+
+
+def segment_path(out_dir: Path, n: int) -> Path:
+    """Segment ``n`` of the recording of a run whose logger was restarted (``run.mcap`` is
+    renamed segment 0 when its logger dies); they are merged into ``run.mcap`` at the end."""
+    return out_dir / f"run.seg{n}.mcap"
+
+
+def _restart_arguments(role: str, out_dir: Path, n: int) -> tuple[str, ...]:
+    """The options that make the ``n``-th restarted process go on where the dead one stopped."""
+    if role == "fsw":
+        return ("--resume", str(out_dir / CHECKPOINT))
+    if n == 1 and (out_dir / "run.mcap").exists():
+        os.replace(out_dir / "run.mcap", segment_path(out_dir, 0))
+    earlier = [a for i in range(n) if segment_path(out_dir, i).exists() for a in ("--after", str(segment_path(out_dir, i)))]
+    return ("--out", str(segment_path(out_dir, n)), *earlier)  # the last --out is the one taken
+
+
 def _restart_record(child: Child, ckpt: Path, wall_s: float) -> Restart:
     from fsw.core.checkpoint import CheckpointError, read_header
 
+    if child.role != "fsw":
+        return Restart(child.role, int(child.proc.returncode), time.time(), wall_s, None, None)
     try:
         header = read_header(ckpt)
         taken: int | None = header.measurements_taken
@@ -178,8 +200,9 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
            restarts: list[Restart] | None = None) -> dict[str, int]:
     """Run the three processes for ``cfg`` (already resolved: seed and initial state fixed).
 
-    An FSW that dies is restarted from its last checkpoint, at most ``max_restarts`` times in all;
-    each restart is appended to ``restarts`` (also when the run then fails). Returns the exit code
+    An FSW that dies is restarted from its last checkpoint, a logger that dies on a new segment
+    (:func:`segment_path`), each at most ``max_restarts`` times; each restart is appended to
+    ``restarts`` (also when the run then fails). Returns the exit code
     per role; raises :class:`RunFailed` if a process failed for good or time ran out."""
     restarts = [] if restarts is None else restarts
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -210,18 +233,19 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
         while True:
             codes = {c.role: c.proc.poll() for c in children}
             failed = [c for c in children if codes[c.role] not in (None, 0)]
-            restartable = [c for c in failed if c.role == "fsw" and len(restarts) < max_restarts
-                           and not interrupted.is_set() and (out_dir / CHECKPOINT).is_file()]
+            restartable = [c for c in failed if c.role in RESTARTABLE and not interrupted.is_set()
+                           and sum(r.process == c.role for r in restarts) < max_restarts
+                           and (c.role != "fsw" or (out_dir / CHECKPOINT).is_file())]
             if restartable:
                 c = restartable[0]
                 if c.thread:
                     c.thread.join(timeout=2)
                 restarts.append(_restart_record(c, out_dir / CHECKPOINT, time.monotonic() - wall0))
+                n = sum(r.process == c.role for r in restarts)
                 if echo is not None:
-                    echo(f"navbank run: the fsw process exited with code {c.proc.returncode} ({last_words(c.tail)}); "
-                         f"restarting it from its checkpoint (restart {len(restarts)} of at most {max_restarts})")
-                children[children.index(c)] = start(
-                    "fsw", ("--resume", str(out_dir / CHECKPOINT)), f"fsw.restart{len(restarts)}.log")
+                    echo(f"navbank run: the {c.role} process exited with code {c.proc.returncode} "
+                         f"({last_words(c.tail)}); restarting it (restart {n} of at most {max_restarts})")
+                children[children.index(c)] = start(c.role, _restart_arguments(c.role, out_dir, n), f"{c.role}.restart{n}.log")
                 continue
             if failed:
                 c = failed[0]

@@ -179,6 +179,7 @@ class Subscriber:
         capacity: int = 8192,
         resume: dict[str, int] | None = None,
         dedupe: bool = False,
+        settle_s: float | None = None,
     ):
         if isinstance(topic_exprs, str):
             topic_exprs = (topic_exprs,)
@@ -213,6 +214,11 @@ class Subscriber:
         self.duplicates: dict[str, int] = {}
         #: further counters every progress reply carries (e.g. a restarted consumer's incarnation)
         self.progress_extra: dict[str, int] = {}
+        # A recorder restarted after messages went by unrecorded can never take everything
+        # announced: with ``settle_s`` a topic counts as complete once nothing has arrived for
+        # that long (what is still missing is lost, and the recorder says so).
+        self.settle_s = settle_s
+        self._last_sample = time.monotonic()
         self._subs: list[Any] = []
         self._queryable = None
         self._rr = 0
@@ -283,6 +289,7 @@ class Subscriber:
         schema = wire.schema_of(sample.encoding)
         pub_seq = wire.sequence_of(sample.attachment)
         with self._lock:
+            self._last_sample = time.monotonic()
             if topic in self._in_order and pub_seq != self._next_seq[topic]:
                 self.discarded[topic] = self.discarded.get(topic, 0) + 1
                 return None
@@ -326,6 +333,10 @@ class Subscriber:
         return Received(topic, payload, now, schema, message, pub_seq)
 
     # -- completeness ----------------------------------------------------------------------
+    def subscribed(self, topic: str) -> bool:
+        """Whether ``topic`` is among this subscriber's topics."""
+        return self._subscribed(topic)
+
     def _subscribed(self, topic: str) -> bool:
         try:
             k = zenoh.KeyExpr(topics.key(self.run_id, topic))
@@ -334,13 +345,37 @@ class Subscriber:
         return any(p.includes(k) for p in self._patterns)
 
     def is_complete(self, status: RunStatus) -> bool:
-        """Whether every topic announced in ``status.counts`` that we subscribe to is fully taken."""
+        """Whether every topic announced in ``status.counts`` that we subscribe to is fully taken
+        (or, with ``settle_s``, nothing more has come for that long)."""
         with self._lock:
             received = dict(self.received)
+            settled = self.settle_s is not None and time.monotonic() - self._last_sample >= self.settle_s
         for name, n in status.counts.items():
-            if "/" in name and self._subscribed(name) and received.get(name, 0) < n:
+            if "/" in name and self._subscribed(name) and received.get(name, 0) < n and not settled:
                 return False
         return True
+
+    def missing(self, status: RunStatus) -> dict[str, int]:
+        """Per topic announced in ``status`` that we subscribe to: how many were not taken."""
+        with self._lock:
+            received = dict(self.received)
+        return {name: n - received.get(name, 0) for name, n in status.counts.items()
+                if "/" in name and self._subscribed(name) and received.get(name, 0) < n}
+
+    def next_sequence(self, topic: str) -> int:
+        """One past the highest publisher sequence number taken on ``topic`` (0 before any)."""
+        with self._lock:
+            return self._next_seq.get(topic, 0)
+
+    def preload(self, topic: str, sequences: Iterable[int]) -> None:
+        """Count ``sequences`` of ``topic`` as taken already (recorded by an earlier recorder of
+        the run): with ``dedupe`` they are not taken again."""
+        with self._lock:
+            for seq in sequences:
+                if self.seen is not None and not self.seen.setdefault(topic, SeenSequences()).add(seq):
+                    continue
+                self.received[topic] = self.received.get(topic, 0) + 1
+                self._next_seq[topic] = max(self._next_seq.get(topic, 0), seq + 1)
 
     def finished(self, producers: Iterable[str]) -> bool:
         """Every producer in ``producers`` has published end-of-run and we have all it announced."""

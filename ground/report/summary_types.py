@@ -206,6 +206,20 @@ class RestartEntry(JsonRecord):
 
 
 @dataclass(frozen=True)
+class SegmentEntry(JsonRecord):
+    """One segment of a recording whose logger was restarted (merged into the run's MCAP file):
+    between one segment's last message and the next one's first, nothing was recorded."""
+
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"first_log_unix_s", "last_log_unix_s"})
+
+    file: str = spec(doc="the segment file")
+    messages: int = spec(doc="messages it holds")
+    complete: bool = spec(doc="its logger finished it (false: the logger died; read up to its last complete chunk)")
+    first_log_unix_s: float | None = spec(None, doc="receive time of its first message, Unix seconds", unit="s")
+    last_log_unix_s: float | None = spec(None, doc="receive time of its last message, Unix seconds", unit="s")
+
+
+@dataclass(frozen=True)
 class RestartsBlock(JsonRecord):
     """Restarts of a ``navbank run`` and what they cost: what was sent or published twice (the
     logger recorded it once and dropped the repeat) and what was never recorded."""
@@ -213,6 +227,7 @@ class RestartsBlock(JsonRecord):
     events: tuple[RestartEntry, ...] = spec(doc="each restart, in order")
     duplicates_dropped: dict[str, int] = spec(doc="per topic: messages received again after a restart, recorded once")
     gaps: dict[str, int] = spec(doc="per topic: publisher sequence numbers never recorded (lost)")
+    segments: tuple[SegmentEntry, ...] = spec(default_factory=tuple, doc="the recording's segments, if the logger was restarted")
 
 
 @dataclass(frozen=True)

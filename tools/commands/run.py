@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 from typing import TYPE_CHECKING, Any
 import sys
 import time
@@ -68,7 +69,25 @@ def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, c
     return dataclasses.replace(cfg, fsw=dataclasses.replace(cfg.fsw, budget=dataclasses.replace(b, **changes)))
 
 
-def _restarts_block(restarts: list[Restart], t0: float, mcap: Path) -> dict[str, Any]:
+def _merge_segments(out: Path) -> list[Any]:
+    """A restarted logger left the recording in segments: merge them into ``run.mcap``."""
+    from ground.mcap_io.segments import merge
+    from tools.launcher import segment_path
+
+    segments: list[Path] = []
+    while segment_path(out, len(segments)).exists():
+        segments.append(segment_path(out, len(segments)))
+    if not segments:
+        return []
+    merged = merge(segments, out / "run.mcap.tmp")
+    os.replace(out / "run.mcap.tmp", out / "run.mcap")
+    print(f"navbank run: the recording's {len(segments)} segments were merged into {out / 'run.mcap'}", file=sys.stderr)
+    return [{"file": str(s.path), "messages": s.messages, "complete": s.complete,
+             "first_log_unix_s": None if s.first_log_ns is None else s.first_log_ns / 1e9,
+             "last_log_unix_s": None if s.last_log_ns is None else s.last_log_ns / 1e9} for s in merged]
+
+
+def _restarts_block(restarts: list[Restart], t0: float, mcap: Path, segments: list[Any]) -> dict[str, Any]:
     """The summary's ``restarts`` section: the launcher's record of each restart and the logger's
     count of what it received twice (dropped) or never (lost)."""
     from ground.mcap_io.reader import read_metadata
@@ -89,7 +108,7 @@ def _restarts_block(restarts: list[Restart], t0: float, mcap: Path) -> dict[str,
                "checkpoint_measurements": r.checkpoint_measurements, "checkpoint_t_s": r.checkpoint_t_s,
                "checkpoint_day": None if r.checkpoint_t_s is None else (r.checkpoint_t_s - t0) / 86400.0}
               for r in restarts]
-    return {"events": events, "duplicates_dropped": table("duplicates"), "gaps": table("gaps")}
+    return {"events": events, "duplicates_dropped": table("duplicates"), "gaps": table("gaps"), "segments": segments}
 
 
 def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str | None, wall: float,
@@ -105,6 +124,7 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
 
     mcap = out / "run.mcap"
     try:
+        segments = _merge_segments(out)
         if not is_complete(mcap):
             fixed = out / "run.recovered.mcap"
             recover(mcap, fixed)
@@ -124,7 +144,7 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
             raise
         return {"run_id": run_id, "status": status, "reason": reason,
                 "summary_error": f"{type(exc).__name__}: {exc}"[:500], "files": {"mcap": str(out / "run.mcap")}}
-    block = None if restarts is None else RestartsBlock.from_json(_restarts_block(restarts, init.t_s, mcap))
+    block = None if restarts is None else RestartsBlock.from_json(_restarts_block(restarts, init.t_s, mcap, segments))
     return dataclasses.replace(summary, run_id=run_id, status=status, reason=reason, restarts=block,
                                files=RunFiles(mcap=str(mcap), config=str(out / "config.yaml")))
 
