@@ -41,13 +41,16 @@ def run_fsw(
     handle_signals: bool = True,
     checkpoint_path: str | os.PathLike[str] | None = None,
     resume: str | os.PathLike[str] | None = None,
+    hold_for_logger_s: float | None = None,
 ) -> dict[str, int]:
     """Run the FSW for run ``run_id`` until the producer's stream ends; returns its counters.
 
     With ``checkpoint_path`` the FSW saves its state there at the configured cadence
     (``fsw.checkpoint``), right after it starts and once the stream is complete; with ``resume``
     it goes on from such a checkpoint (:class:`fsw.core.checkpoint.CheckpointError` if it is not
-    this run's and configuration's) and the producer resends what came after it."""
+    this run's and configuration's) and the producer resends what came after it. With
+    ``hold_for_logger_s`` telemetry waits while the logger is away (being restarted), at most
+    that long each time."""
     with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=handle_signals) as life:
         restored = None if resume is None else checkpoint.read(resume, config, run_id, life.put)
         if restored is None:
@@ -55,6 +58,8 @@ def run_fsw(
         else:
             core = restored.core
             life.restore_publishers(restored.published)
+        if hold_for_logger_s is not None:
+            life.hold_while_away(topics.FSW_STATUS, hold_for_logger_s)  # only the logger takes the status
         # the FIFO must hold more than the producer's credit window (see CreditWindow)
         sub = life.subscriber(ALLOWED_TOPICS, decode=False, role="fsw", capacity=16384,
                               resume=None if restored is None else {topics.SIM_MEASUREMENTS: restored.measurements_taken})

@@ -40,11 +40,14 @@ def publish_run(
     rate: float | None = None,
     wait_s: float = 60.0,
     progress: Callable[[float], None] | None = None,
+    hold_for_logger_s: float | None = None,
 ) -> dict[str, int]:
     """Publish ``run`` under ``navbank/<run_id>/sim/...``; returns the end-of-run counts.
 
     ``consumers`` are the roles that must be up before the first message and must confirm the
-    end of the stream; ``credit_role`` (one of them) paces the measurements.
+    end of the stream; ``credit_role`` (one of them) paces the measurements. With
+    ``hold_for_logger_s`` publishing waits while the logger is away (being restarted), at most
+    that long each time.
     """
     # SIGINT/SIGTERM keep their default action: a stopped simulator has nothing left to save.
     with tp.ProcessLifecycle(run_id, transport_cfg, handle_signals=False) as life:
@@ -57,6 +60,8 @@ def publish_run(
             topics.SIM_TRUTH: life.publisher(topics.SIM_TRUTH),
             topics.SIM_FAULTS: life.publisher(topics.SIM_FAULTS),
         }
+        if hold_for_logger_s is not None:
+            life.hold_while_away(topics.SIM_TRUTH, hold_for_logger_s)  # only the logger takes the truth
         # a restarted FSW is sent again what came after its checkpoint (sim/resend.py)
         measurements = ResendingPublisher(pubs[topics.SIM_MEASUREMENTS])
         life.put(topics.SIM_STATUS, _status(run, run_id, "start", {"measurements": len(run.measurements)}, run.t_start))

@@ -119,12 +119,15 @@ def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[st
                 "--attach", str(cfg_path), *net]
     if role == "fsw":
         return [*base, "fsw", "--scenario", str(cfg_path), "--run-id", run_id, "--checkpoint", str(out_dir / CHECKPOINT),
-                *net]
-    return [*base, "sim", "--scenario", str(cfg_path), "--run-id", run_id, *net]
+                "--hold-for-logger", f"{HOLD_FOR_LOGGER_S:g}", *net]
+    return [*base, "sim", "--scenario", str(cfg_path), "--run-id", run_id, "--hold-for-logger", f"{HOLD_FOR_LOGGER_S:g}",
+            *net]
 
 
 #: The FSW's checkpoint file in the run directory (``fsw.checkpoint`` sets the cadence).
 CHECKPOINT = "fsw.ckpt"
+#: How long the producers wait for a restarted logger each time it is away (then they go on).
+HOLD_FOR_LOGGER_S = 60.0
 #: Restarts of a dying FSW (or logger) before the run is failed.
 DEFAULT_MAX_RESTARTS = 3
 

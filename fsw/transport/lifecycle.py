@@ -29,7 +29,7 @@ import zenoh
 from fsw.interface.messages import RunStatus, Telecommand, TelecommandReply
 from fsw.transport import flow
 from fsw.transport.commands import CommandServer
-from fsw.transport.pubsub import Publisher, Subscriber, TopicPublisher
+from fsw.transport.pubsub import ConsumerHold, Publisher, Subscriber, TopicPublisher
 from fsw.transport.session import TransportConfig, TransportError, open_session
 
 #: Time for a last query reply to leave before the session closes.
@@ -68,6 +68,7 @@ class ProcessLifecycle:
         self._subs: list[Subscriber] = []
         self._servers: list[CommandServer] = []
         self._stack = ExitStack()
+        self._hold: ConsumerHold | None = None
 
     # -- entering and leaving ------------------------------------------------------------
     def __enter__(self) -> "ProcessLifecycle":
@@ -121,9 +122,20 @@ class ProcessLifecycle:
         pub = self._pubs.get(topic)
         if pub is None:
             pub = self._pubs[topic] = Publisher(self.session, self.run_id, topic, credit=credit)
+            pub.hold = self._hold
         if not isinstance(pub, Publisher):
             raise TypeError(f"{topic} was declared with a publisher of raw payloads, not ICD messages")
         return pub
+
+    def hold_while_away(self, sentinel_topic: str, timeout_s: float) -> ConsumerHold:
+        """Hold every put of this process while the consumer of ``sentinel_topic`` (one only the
+        logger takes) is away, at most ``timeout_s`` per absence (:class:`ConsumerHold`): what is
+        published while a logger is restarted waits for the new one instead of being lost."""
+        self._hold = ConsumerHold(self.publisher(sentinel_topic), timeout_s)
+        for pub in self._pubs.values():
+            if isinstance(pub, Publisher):
+                pub.hold = self._hold
+        return self._hold
 
     def restore_publishers(self, counts: dict[str, int]) -> None:
         """Declare the publishers of ``counts``' topics with their sequence counters where a

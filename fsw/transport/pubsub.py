@@ -40,6 +40,39 @@ class TopicPublisher(Protocol):
     def close(self) -> None: ...
 
 
+class ConsumerHold:
+    """Holds a producer's puts while a consumer that was there has gone (a logger being restarted).
+
+    ``sentinel`` is a publisher only that consumer subscribes to (the simulator's truth, the
+    FSW's status): once it has matched a subscriber, a put made while it matches none waits until
+    one is back, at most ``timeout_s`` per absence (then it stops holding: a consumer that does
+    not come back must not stop the run). Checking costs a couple of microseconds per put."""
+
+    def __init__(self, sentinel: "Publisher", timeout_s: float = 60.0, poll_s: float = 0.01):
+        self.sentinel, self.timeout_s, self.poll_s = sentinel, timeout_s, poll_s
+        self.seen = False
+        self.holds = 0  # absences waited out (or given up on)
+        self.held_s = 0.0
+        self.gave_up = False
+
+    def wait(self) -> None:
+        if self.gave_up:
+            return
+        if self.sentinel.matched:
+            self.seen = True
+            return
+        if not self.seen:
+            return  # nobody was there yet: nothing to wait for
+        self.holds += 1
+        t0 = time.monotonic()
+        while not self.sentinel.matched:
+            if time.monotonic() - t0 > self.timeout_s:
+                self.gave_up = True
+                break
+            time.sleep(self.poll_s)
+        self.held_s += time.monotonic() - t0
+
+
 class Publisher:
     """One ICD topic of one run: RELIABLE, congestion control BLOCK, JSON with schema name.
 
@@ -73,6 +106,7 @@ class Publisher:
         self.cls = cls
         self.count = 0
         self.credit = tuple(credit)
+        self.hold: ConsumerHold | None = None
         self._pub = session.declare_publisher(
             self.key,
             encoding=wire.encoding(cls),
@@ -89,6 +123,8 @@ class Publisher:
 
     def put_payload(self, payload: bytes) -> None:
         """Publish an already encoded payload (replay of recorded bytes)."""
+        if self.hold is not None:
+            self.hold.wait()
         for window in self.credit:
             window.wait(self.count)
         self._pub.put(payload, attachment=wire.sequence_attachment(self.count))
@@ -97,6 +133,12 @@ class Publisher:
     @property
     def has_subscribers(self) -> bool:
         return bool(self._pub.matching_status)
+
+    @property
+    def matched(self) -> bool:
+        """Some subscriber matches this publisher now."""
+        status: Any = self._pub.matching_status  # a MatchingStatus (the stubs say bool)
+        return bool(status.matching)
 
     def close(self) -> None:
         self._pub.undeclare()

@@ -35,6 +35,8 @@ def add_arguments(p) -> None:
     g.add_argument("--checkpoint", default=None, metavar="FILE", help="save the FSW's state to FILE at the checkpoint cadence")
     g.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
                    help="checkpoint every N measurements (default: the scenario's fsw.checkpoint.every_measurements)")
+    g.add_argument("--hold-for-logger", type=float, default=None, metavar="S",
+                   help="once the logger was up, hold telemetry while it is away (restarting), at most S seconds each time")
     g.add_argument("--resume", default=None, metavar="FILE", help="go on from the checkpoint FILE (the producer resends what came after it)")
     add_transport_arguments(p)
 
@@ -53,7 +55,7 @@ def run(args) -> int:
     try:
         counts = run_fsw(fsw_cfg, args.run_id, transport_config_from_args(args), consumers=consumers,
                          progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout,
-                         checkpoint_path=args.checkpoint, resume=args.resume)
+                         checkpoint_path=args.checkpoint, resume=args.resume, hold_for_logger_s=args.hold_for_logger)
     except CheckpointError as exc:
         print(f"navbank fsw: {exc}", file=sys.stderr)
         return 2

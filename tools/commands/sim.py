@@ -30,6 +30,8 @@ def add_arguments(p) -> None:
     p.add_argument("--consumers", default="fsw,ground", metavar="LIST",
                    help="roles that must be up before publishing and confirm the end (default fsw,ground)")
     p.add_argument("--window", type=int, default=2000, metavar="N", help="credit window: measurements ahead of the FSW (default 2000)")
+    p.add_argument("--hold-for-logger", type=float, default=None, metavar="S",
+                   help="once the logger was up, hold publishing while it is away (restarting), at most S seconds each time")
     add_transport_arguments(p)
 
 
@@ -81,7 +83,7 @@ def run(args) -> int:
         try:
             counts = publish_run(run_, args.run_id, transport_config_from_args(args), consumers=consumers,
                                  credit_role="fsw" if "fsw" in consumers else None, window=args.window,
-                                 rate=args.rate, progress=ProgressBar("sim"))
+                                 rate=args.rate, progress=ProgressBar("sim"), hold_for_logger_s=args.hold_for_logger)
         except tp.TransportError as exc:
             print(f"navbank sim: {exc}", file=sys.stderr)
             return 1
