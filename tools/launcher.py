@@ -148,6 +148,14 @@ class Restart:
 RESTARTABLE = ("fsw", "ground")
 
 
+def _died(child: Child) -> bool:
+    """The process died (a signal, a crash) rather than failing for a reason it stated in its
+    one-line error (a full disk, a refused checkpoint): only the former is worth a restart."""
+    if child.proc.returncode is not None and child.proc.returncode < 0:
+        return True
+    return not last_words(child.tail).startswith("navbank ")
+
+
 def segment_path(out_dir: Path, n: int) -> Path:
     """Segment ``n`` of the recording of a run whose logger was restarted (``run.mcap`` is
     renamed segment 0 when its logger dies); they are merged into ``run.mcap`` at the end."""
@@ -236,13 +244,14 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
         while True:
             codes = {c.role: c.proc.poll() for c in children}
             failed = [c for c in children if codes[c.role] not in (None, 0)]
-            restartable = [c for c in failed if c.role in RESTARTABLE and not interrupted.is_set()
+            for c in failed:
+                if c.thread:
+                    c.thread.join(timeout=2)  # its last words are read before they are judged
+            restartable = [c for c in failed if c.role in RESTARTABLE and _died(c) and not interrupted.is_set()
                            and sum(r.process == c.role for r in restarts) < max_restarts
                            and (c.role != "fsw" or (out_dir / CHECKPOINT).is_file())]
             if restartable:
                 c = restartable[0]
-                if c.thread:
-                    c.thread.join(timeout=2)
                 restarts.append(_restart_record(c, out_dir / CHECKPOINT, time.monotonic() - wall0))
                 n = sum(r.process == c.role for r in restarts)
                 if echo is not None:
@@ -258,7 +267,8 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
                         ch.thread.join(timeout=2)
                 why = last_words(c.tail)
                 log = f"{c.log_path} (not written: {c.log_error})" if c.log_error else str(c.log_path)
-                after = f" after {len(restarts)} restart(s)" if c.role == "fsw" and restarts else ""
+                n = sum(r.process == c.role for r in restarts)
+                after = f" after {n} restart(s)" if n else ""
                 raise RunFailed(f"the {c.role} process exited with code {codes[c.role]} ({why}){after}; "
                                 f"the others were stopped. Log: {log}")
             if all(code == 0 for code in codes.values()):

@@ -30,6 +30,11 @@ the diagnosed class against the injected fault, position errors against truth, a
 Writes DIR/run.mcap (open it in Foxglove), DIR/summary.json, DIR/config.yaml (the exact
 configuration, re-runnable with --scenario DIR/config.yaml) and a log per process.
 
+A process that dies is restarted (at most --max-restarts times each): the FSW from its last
+checkpoint (DIR/fsw.ckpt; the simulator sends again what came after it), the logger on a new
+segment (DIR/run.seg<n>.mcap, merged into DIR/run.mcap at the end). summary.json lists the
+restarts and what, if anything, was never recorded.
+
 Default: the insight-approach scenario with a medium optical bias from day 20 of 45."""
 
 
