@@ -87,6 +87,9 @@ def run(args) -> int:
         except tp.TransportError as exc:
             print(f"navbank sim: {exc}", file=sys.stderr)
             return 1
+        if counts.get("consumer_restarts"):
+            print(f"sim: the FSW restarted {counts['consumer_restarts']} time(s); {counts['resent']} measurements "
+                  "sent again after its checkpoints", file=sys.stderr)
         print(f"sim: published {counts.get('measurements', 0)} measurements as run {args.run_id}; "
               f"process CPU {time.process_time():.1f} s", file=sys.stderr)
     return 0
