@@ -65,15 +65,13 @@ def describe(summary: RunSummary) -> str:
         lines.append(f"stopped with {s.measurements.unprocessed} measurements delivered to the FSW but not processed")
     if s.restarts is not None and s.restarts.events:
         # a restarted run says so, and what the restarts cost the recording
-        for ev in s.restarts.events:
-            where = "" if ev.checkpoint_day is None else \
-                f", went on from its checkpoint on day {ev.checkpoint_day:.2f} ({ev.checkpoint_measurements} measurements)"
-            lines.append(f"restart: the {ev.process} process ended with code {ev.exit_code} {ev.at_wall_s:.1f} s "
-                         f"into the run{where}")
-        lost = sum(s.restarts.gaps.values())
-        lines.append(f"  recorded twice and dropped: {sum(s.restarts.duplicates_dropped.values())}; "
-                     f"never recorded: {lost}" + (" (" + ", ".join(f"{t} {n}" for t, n in s.restarts.gaps.items()) + ")"
-                                                  if lost else ""))
+        for r in s.restarts.events:
+            where = "" if r.checkpoint_day is None else \
+                f", went on from its checkpoint on day {r.checkpoint_day:.2f} ({r.checkpoint_measurements} measurements)"
+            lines.append(f"restart: the {r.process} process ended with code {r.exit_code} {r.at_wall_s:.1f} s into the run{where}")
+        twice = sum(s.restarts.duplicates_dropped.values())
+        lost = ", ".join(f"{t} {n}" for t, n in s.restarts.gaps.items()) or "nothing"
+        lines.append(f"  recorded twice and dropped: {twice}; never recorded: {lost}")
     if s.wall_time_s is not None:
         lines.append(f"wall time {s.wall_time_s:.1f} s")
     return "\n".join(lines)
