@@ -42,3 +42,23 @@ def test_a_restarted_logger_writes_the_next_segment_after_the_earlier_ones(tmp_p
     assert _restart_arguments("ground", tmp_path, 2) == (
         "--out", str(segment_path(tmp_path, 2)),
         "--after", str(segment_path(tmp_path, 0)), "--after", str(segment_path(tmp_path, 1)))
+
+
+def test_a_reused_output_directory_hands_the_run_no_old_checkpoint_or_segments(tmp_path, monkeypatch):
+    import tools.launcher as launcher
+
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in ("fsw.ckpt", "run.seg0.mcap", "run.seg1.mcap"):
+        (out / name).write_bytes(b"from an earlier run")
+
+    def no_ports(n: int) -> list[int]:
+        raise RuntimeError("stop here: only the preparation is under test")
+
+    monkeypatch.setattr(launcher, "free_tcp_ports", no_ports)
+    from tools.scenario import load_text_scenario, resolve
+
+    cfg, _ = resolve(load_text_scenario("name: x\nsim:\n  trajectory: {span_days: 1.0}\n"), 1)
+    with pytest.raises(RuntimeError, match="stop here"):
+        launcher.launch(cfg, "reused", out)
+    assert sorted(p.name for p in out.iterdir()) == ["config.yaml"]

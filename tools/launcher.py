@@ -217,6 +217,9 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
     per role; raises :class:`RunFailed` if a process failed for good or time ran out."""
     restarts = [] if restarts is None else restarts
     out_dir.mkdir(parents=True, exist_ok=True)
+    # a directory used before must not hand this run another run's checkpoint or segments
+    for stale in [out_dir / CHECKPOINT, *out_dir.glob("run.seg*.mcap")]:
+        stale.unlink(missing_ok=True)
     cfg_path = out_dir / "config.yaml"
     cfg_path.write_text(to_yaml(cfg, complete=True), encoding="utf-8")
     ports = free_tcp_ports(len(ROLES))
