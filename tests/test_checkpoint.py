@@ -158,3 +158,17 @@ def test_a_bad_checkpoint_cadence_is_a_configuration_error(short_e2e_yaml):
         load_text_scenario(text)
     assert "checkpoint.every_measurements" in str(info.value)
 
+
+
+def test_navbank_fsw_refuses_an_unusable_checkpoint_in_one_line(tmp_path, short_e2e_yaml):
+    import subprocess
+    import sys
+
+    (tmp_path / "s.yaml").write_text(short_e2e_yaml)
+    (tmp_path / "bad.ckpt").write_bytes(b"garbage\n")
+    proc = subprocess.run([sys.executable, "-m", "tools.cli", "fsw", "--scenario", str(tmp_path / "s.yaml"),
+                           "--run-id", "r1", "--resume", str(tmp_path / "bad.ckpt"), "--quiet"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines()[-1] == f"navbank fsw: {tmp_path / 'bad.ckpt'}: not a navbank FSW checkpoint"
+    assert "Traceback" not in proc.stderr
