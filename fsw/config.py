@@ -43,12 +43,16 @@ class GatingEntry:
             raise DecodeError(path, "a mapping {network: NAME, parameters...}", type(data).__name__)
         name = data.get("network")
         if name not in NETWORKS:
-            raise DecodeError(f"{path}.network" if path else "network", "one of " + ", ".join(NETWORKS), repr(name))
+            raise DecodeError(f"{path}.network" if path else "network", "one of " + ", ".join(NETWORKS),
+                              repr(name) + typed.did_you_mean(name, NETWORKS))
         rest = {k: v for k, v in data.items() if k != "network"}
         return cls(network=name, params=typed.decode(params_type(name), rest, path))
 
     def _typed_encode(self, drop_defaults: bool) -> dict[str, Any]:
         return {"network": self.network, **typed.encode(self.params, drop_defaults=drop_defaults)}
+
+    def _typed_annotated(self) -> tuple[list[tuple[str, Any, str]], Any]:
+        return [("network", self.network, "gating network (see docs/scenarios.md)")], self.params
 
     @classmethod
     def _typed_schema(cls) -> dict[str, Any]:

@@ -12,7 +12,6 @@ before the session closes (:class:`fsw.transport.ProcessLifecycle`).
 
 from __future__ import annotations
 
-import sys
 import time
 from typing import Callable, Sequence
 
@@ -102,11 +101,3 @@ def publish_run(
         if progress is not None:
             progress(1.0)
         return counts
-
-
-def print_progress(prefix: str) -> Callable[[float], None]:
-    def show(fraction: float) -> None:
-        print(f"{prefix} {100.0 * fraction:5.1f} %", file=sys.stderr, flush=True)
-
-    return show
-

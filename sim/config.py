@@ -24,7 +24,7 @@ class SimConfig:
     clock: ClockConfig = spec(ClockConfig(), doc="onboard clock random process")
     radiometric: RadiometricConfig = spec(RadiometricConfig(), doc="DSN one-way range and Doppler")
     optical: OpticalConfig = spec(OpticalConfig(), doc="optical navigation camera")
-    faults: tuple[FaultConfig, ...] = spec((), doc="injected faults (see sim.faults.config)")
+    faults: tuple[FaultConfig, ...] = spec((), doc="injected faults (docs/scenarios.md#faults)")
     truth_interval_s: float = spec(
         600.0, doc="cadence of published Truth messages; 0 publishes one at every measurement time", unit="s", ge=0.0
     )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import sys
 
 import pytest
 
@@ -30,3 +31,16 @@ def test_text_output_has_one_line_per_benchmark():
     run_benchmarks(json=False, quick=True, out=buf)
     text = buf.getvalue().splitlines()
     assert len(text) == 3 and text[0].startswith("linear-bank") and "ratio" in text[0]
+
+
+def test_without_filterpy_the_linear_entry_is_skipped_with_one_line(monkeypatch, capsys):
+    # an entry of None in sys.modules makes `import filterpy...` raise ImportError, as when it
+    # is not installed
+    monkeypatch.setitem(sys.modules, "filterpy", None)
+    monkeypatch.setitem(sys.modules, "filterpy.kalman", None)
+    buf = io.StringIO()
+    results = run_benchmarks(json=True, quick=True, out=buf)
+    assert [r["name"] for r in results] == ["ekf-bank-3", "ekf-bank-6"]
+    assert [json.loads(line)["name"] for line in buf.getvalue().splitlines()] == ["ekf-bank-3", "ekf-bank-6"]
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "skipped" in err[0] and "FilterPy" in err[0]

@@ -9,7 +9,7 @@ TASK = {
     "id": "0123456789abcdef", "cell": {"scenario": "s", "fault": "none", "variant": "three"}, "seed": 4,
     "scenario": {"name": "s", "sim": {"trajectory": {"span_days": 2.0}}}, "fault_label": "none",
     "fault_class": "none", "detector_network": "chi2", "detector_calibrated": True, "span_days": 2.0,
-    "extract_weights": ["chi2"], "monitors": {"magill": {"network": "magill", "threshold": 8.0}},
+    "extract_weights": ["chi2"], "keep_mcap": "failed", "monitors": {"magill": {"network": "magill", "threshold": 8.0}},
 }
 
 

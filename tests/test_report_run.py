@@ -175,6 +175,19 @@ def test_write_run_figures_and_markdown(hand_made, tmp_path):
             assert f"]({p.name})" in md
     assert "declared on day 1.70 by chi2: optical-measurement" in md
     assert "Numbers from the recorded messages" in md
+    assert md.startswith("# navbank run report: hm\n")  # the run id, not a file name
+
+
+def test_plot_nits(hand_made):
+    data = extract(hand_made)
+    fig = run_plots.plot_anomaly_statistic(data)
+    assert fig.axes[0].get_ylim()[0] == 0.0  # a non-negative statistic gets no negative region
+    fig = run_plots.plot_budget(data)
+    assert all(ax.get_ylim()[0] >= 0.0 for ax in fig.axes)
+    fig = run_plots.plot_position_errors_all(data)
+    lines = {ln.get_label(): ln for ln in fig.axes[0].lines}
+    declared = [ln for lb, ln in lines.items() if lb.startswith("anomaly declared")]
+    assert declared and all(ln.get_color() == run_plots.DECLARATION_COLOR != "black" for ln in declared)
 
 
 # --- a real (short) run: the whole path from the FSW's messages to report.md ------------------

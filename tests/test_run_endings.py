@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -36,7 +37,9 @@ def _wait_for_progress(proc: subprocess.Popen, timeout_s: float = 60.0) -> None:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         line = proc.stderr.readline()
-        if line.startswith("fsw: day") and "processed" in line and not line.startswith("fsw: day   0.0"):
+        # the progress bar's line (a pipe gets whole lines): "run ID  12%|#  | 5.3/45.0 day [..."
+        day = re.search(r"\| ([0-9.]+)/[0-9.]+ day \[", line)
+        if day and float(day.group(1)) > 0.0 and "processed" in line:
             return
         assert line or proc.poll() is None, "navbank run ended early"
     raise AssertionError("no progress")

@@ -12,10 +12,11 @@ import importlib
 import os
 import signal
 import sys
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from fsw.interface.yamlconfig import ConfigError
 from tools.commands.errors import UsageError
+from tools.commands.help_text import PlainHelpFormatter, version_text
 from tools.supervision import watch_supervisor_from_env
 from tools.commands.outputs import write_error_line
 
@@ -41,6 +42,11 @@ class OneLineParser(argparse.ArgumentParser):
     """An argument parser whose errors are one line (exit code 2), as for a bad configuration
     file: argparse's default prints the whole usage block before the one line that matters."""
 
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        # also the class of every sub-parser, so every --help is plain text
+        kwargs.setdefault("formatter_class", PlainHelpFormatter)
+        super().__init__(*args, **kwargs)
+
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
@@ -51,11 +57,11 @@ def build_parser() -> argparse.ArgumentParser:
         description="Flight-software-in-the-loop simulator for autonomous deep-space navigation "
         "with filter-bank anomaly detection.",
     )
+    parser.add_argument("--version", action="version", version=version_text())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module_name in COMMANDS:
         module = importlib.import_module(module_name)
-        p = sub.add_parser(module.NAME, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP),
-                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        p = sub.add_parser(module.NAME, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP))
         module.add_arguments(p)
         p.set_defaults(_run=module.run, _name=module.NAME)
     return parser

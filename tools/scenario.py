@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from fsw.config import FswConfig, InitialState
-from fsw.interface.typed import spec
+from fsw.interface.typed import did_you_mean, spec
 from fsw.interface.yamlconfig import ConfigError, dump_yaml, load_file, load_text
 from sim.config import SimConfig
 from sim.faults.presets import FAULT_PRESETS, preset
@@ -43,7 +43,8 @@ def builtin_names() -> list[str]:
 def builtin_text(name: str) -> str:
     path = resources.files("tools").joinpath("scenarios", f"{name}.yaml")
     if not path.is_file():
-        raise ConfigError(name, None, "", "a built-in scenario (" + ", ".join(builtin_names()) + ") or a YAML file", "unknown name")
+        raise ConfigError(name, None, "", "a built-in scenario (" + ", ".join(builtin_names()) + ") or a YAML file",
+                          "unknown name" + did_you_mean(name, builtin_names()))
     return path.read_text(encoding="utf-8")
 
 
@@ -59,7 +60,7 @@ def with_fault(cfg: ScenarioConfig, fault: str | None, onset_day: float | None =
     if fault is None:
         return cfg
     if fault not in FAULT_PRESETS:
-        raise ConfigError("--fault", None, "", "one of " + ", ".join(FAULT_PRESETS), repr(fault))
+        raise ConfigError("--fault", None, "", "one of " + ", ".join(FAULT_PRESETS), repr(fault) + did_you_mean(fault, FAULT_PRESETS))
     faults = preset(fault, onset_day=onset_day)
     return dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, faults=tuple(faults)))
 

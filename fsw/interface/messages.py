@@ -179,7 +179,9 @@ class Estimate:
 
     t_s: float = spec(doc="epoch of the estimate, TDB seconds past J2000", unit="s")
     timestamp: Stamp = spec(doc="epoch as Unix time")
-    filter: str = spec(max_length=NAME_CHARS, doc="filter name, or 'combined' (weighted sum) / 'best' (highest weight)")
+    filter: str = spec(max_length=NAME_CHARS, doc="filter name, or 'combined' (gating-weighted sum of the enabled filters, "
+                       "Chaer et al. 1997 eq. 3, weights of the detector's network) / 'best' (the filter navigated on: "
+                       "smallest RTPC until an anomaly is declared, then the highest-weighted)")
     position_km: tuple[float, ...] = spec(doc="Mars-centred ICRF position", unit="km", shape=(3,))
     velocity_km_s: tuple[float, ...] = spec(doc="Mars-centred ICRF velocity", unit="km/s", shape=(3,))
     position_sigma_km: float = spec(doc="root-trace of the position covariance (RTPC)", unit="km", ge=0.0)

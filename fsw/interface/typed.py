@@ -22,6 +22,7 @@ nested dataclass D, ``dict[str, X]`` and nested dataclasses.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import types
 import typing
@@ -68,6 +69,14 @@ def spec(
     if default_factory is not _MISSING:
         return dataclasses.field(default_factory=default_factory, metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
+
+
+def did_you_mean(word: Any, choices: Any) -> str:
+    """`` (did you mean 'x'?)`` for the choice closest to a mistyped ``word``, or nothing."""
+    if not isinstance(word, str):
+        return ""
+    close = difflib.get_close_matches(word, [str(c) for c in choices], n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def _short(value: Any) -> str:
@@ -189,7 +198,8 @@ def _decode_value(tp: Any, value: Any, path: str, meta: dict, dim: int = 0) -> A
     if origin is Literal:
         choices = get_args(tp)
         if value not in choices or isinstance(value, bool) != isinstance(choices[0], bool):
-            raise DecodeError(path, "one of " + ", ".join(map(str, choices)), _type_name(value))
+            raise DecodeError(path, "one of " + ", ".join(map(str, choices)),
+                              _type_name(value) + did_you_mean(value, choices))
         return value
     if origin is tuple:
         args = get_args(tp)
@@ -234,7 +244,8 @@ def decode(cls: type, data: Any, path: str = "") -> Any:
     for key in data:
         if key not in known:
             raise DecodeError(
-                _join(path, key), "one of the keys " + ", ".join(sorted(known)), f"unknown key {key!r}"
+                _join(path, key), "one of the keys " + ", ".join(sorted(known)),
+                f"unknown key {key!r}" + did_you_mean(key, known),
             )
     kwargs = {}
     for f, tp in fields_of(cls):

@@ -21,6 +21,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
+from fsw.astro.time import TimeError, tdb_to_utc_iso
 from fsw.interface import codec, topics
 
 _INDEX = re.compile(r"\[\d+\]")
@@ -160,7 +161,7 @@ def compare_messages(topic: str, recorded: list[Any], rerun: list[Any], *, compa
                 if a != b:
                     fd.mismatches += 1
                     if not fd.example:
-                        fd.example = f"{a!r} vs {b!r}"[:80]
+                        fd.example = f"{_shown(name, a)} vs {_shown(name, b)}"[:100]
                         if fd.max_abs == 0.0:
                             fd.worst_index, fd.worst_t_s = i, t_s
             elif d > fd.max_abs:
@@ -168,6 +169,19 @@ def compare_messages(topic: str, recorded: list[Any], rerun: list[Any], *, compa
                 if not fd.mismatches:
                     fd.worst_index, fd.worst_t_s = i, t_s
     return td
+
+
+#: Fields that hold an epoch (TDB seconds past J2000): examples show them as UTC dates.
+EPOCH_FIELDS = frozenset({"t_s", "onset_s", "declared_s"})
+
+
+def _shown(name: str, value: Any) -> str:
+    if name.rsplit(".", 1)[-1] in EPOCH_FIELDS and _is_number(value):
+        try:
+            return tdb_to_utc_iso(float(value), 0)
+        except (TimeError, ValueError):
+            pass
+    return repr(value)
 
 
 def compare_runs(recorded: dict[str, list[Any]], rerun: dict[str, list[Any]], *, tolerance: float = 0.0,

@@ -10,12 +10,14 @@ counters may legitimately differ.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from fsw.astro.time import TimeError, tdb_to_utc_iso
 from fsw.config import FswConfig
 from fsw.interface import codec, topics
 from ground.replay.compare import Comparison, compare_runs
@@ -38,6 +40,8 @@ class RegressionResult:
     comparison: Comparison
     undecodable_recorded: int = 0  # recorded /fsw messages that did not decode (compared as raw JSON)
     notes: list[str] = field(default_factory=list)
+    recorded_config: str = ""  # the scenario YAML attached to the recording
+    recorded_config_name: str = ""
 
     @property
     def identical(self) -> bool:
@@ -88,6 +92,7 @@ def rerun_and_compare(
     label = f"{info.path}:{info.config_name}"
     config = load_fsw_config(info.config_text, label, overrides=overrides,
                              replacement=os.fspath(replacement) if replacement is not None else None)
+    as_recorded = load_fsw_config(info.config_text, label) if (overrides or replacement is not None) else config
     stream, _ = recorded_measurement_stream(path)
     if not stream:
         raise RecordingError(f"{info.path}: no /sim/measurements recorded")
@@ -103,11 +108,39 @@ def rerun_and_compare(
         notes.append(CPU_NOTE)
     if not info.complete:
         notes.append("the recording has no footer (cut short): its last messages are missing, counts will differ")
+    notes += calibration_notes(as_recorded, config)
     changes = [f"--config {os.fspath(replacement)}"] if replacement is not None else []
     changes += [f"--set {o}" for o in overrides]
     comparison = compare_runs(recorded, rerun_topics, tolerance=tolerance, counts_only=counts_only)
     return RegressionResult(run_id=info.run_id, config=config, changes=changes, rerun=rerun, comparison=comparison,
-                            undecodable_recorded=bad, notes=notes)
+                            undecodable_recorded=bad, notes=notes, recorded_config=info.config_text,
+                            recorded_config_name=label)
+
+
+def calibration_notes(recorded: FswConfig, changed: FswConfig) -> list[str]:
+    """A warning when the detector keeps a calibration made for its network's recorded
+    parameters while those parameters changed: thresholds and false-alarm rate are properties
+    of the weights a network produces, and a batch size changes even what one weight is."""
+    cal = changed.detector.calibration
+    net = changed.detector.network
+    if cal is None or cal != recorded.detector.calibration or recorded.detector.network != net:
+        return []
+    before = {g.network: g.params for g in recorded.gating}.get(net)
+    after = {g.network: g.params for g in changed.gating}.get(net)
+    if before is None or after is None or before == after:
+        return []
+    diffs = [f"{f.name} {getattr(before, f.name)!r} -> {getattr(after, f.name)!r}" for f in dataclasses.fields(after)
+             if getattr(before, f.name) != getattr(after, f.name)]
+    return [f"the detector's calibration was made for {net} as recorded; this re-run changes {', '.join(diffs)}, so "
+            "its thresholds and false-alarm rate do not apply to these weights (re-calibrate with `navbank calibrate`)"]
+
+
+def _when(t_s: float) -> str:
+    """A TDB epoch as ISO 8601 UTC, with the raw seconds for cross-reference."""
+    try:
+        return f"{tdb_to_utc_iso(t_s, 0)} UTC, t_s {t_s:.1f}"
+    except (TimeError, ValueError):
+        return f"t_s {t_s:.1f}"
 
 
 def _fmt(x: float) -> str:
@@ -138,7 +171,7 @@ def format_result(res: RegressionResult, largest: int = 10) -> str:
         for topic, name, f in rows:
             at = f" at message {f.worst_index}" if f.worst_index >= 0 else ""
             if f.worst_t_s is not None:
-                at += f" (t_s {f.worst_t_s:.1f})"
+                at += f" ({_when(f.worst_t_s)})"
             what = f"{f.mismatches} mismatches, e.g. {f.example}" if f.mismatches else f"|diff| {_fmt(f.max_abs)}"
             lines.append(f"  {topic} {name}: {what}{at}")
     one_sided = sorted({k for t in c.topics.values() for k in t.one_sided})

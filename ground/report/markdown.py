@@ -108,10 +108,13 @@ def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source:
                  data: RunData | None = None) -> str:
     """Markdown text of a run report; ``data`` (the extracted messages) adds the hierarchical gating tables."""
     s = facts
-    lines = [f"# navbank run report: {source}", ""]
+    run_id = s.get("run_id")
+    lines = [f"# navbank run report: {run_id or source}", ""]
     fault = s.get("fault") or {}
     starts = [e for e in fault.get("events", []) if e.get("event") == "start"]
     rows: list[list[str]] = [
+        ["run", _num(run_id)],
+        ["recording", source],
         ["scenario", _num(s.get("scenario"))],
         ["seed", _num(s.get("seed"))],
         ["fault case", _num(fault.get("preset") or fault.get("class"))],
@@ -164,6 +167,11 @@ def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source:
         lines += _table(["solution", "RMS [km]", "final [km]", "epochs within 3σ"],
                         [[k, _num(v, ".3g"), _num(fin.get(k), ".3g"), _num(None if w3.get(k) is None else 100 * w3[k], ".0f") + " %"]
                          for k, v in pos.items()]) + [""]
+        if "combined" in pos or "best" in pos:
+            lines += ["*combined*: the gating-weighted sum of the enabled filters' estimates (Chaer et al. 1997 eq. 3, "
+                      "weights of the detector's network); *best*: the filter navigated on — the one with the smallest "
+                      "position uncertainty (RTPC) until an anomaly is declared, then the one with the highest weight. "
+                      "Within 3σ: the position error is at most 3 RTPC.", ""]
     if figures:
         lines += ["## Figures", ""] + _figures(figures, out_dir, RUN_CAPTIONS)
     return "\n".join(lines).rstrip() + "\n"

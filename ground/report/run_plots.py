@@ -32,6 +32,10 @@ FEW_POINTS = 60
 MAX_LABELLED_DECLARATIONS = 3
 
 
+#: Colour of the anomaly-declaration lines (the combined solution is black, faults crimson).
+DECLARATION_COLOR = "darkviolet"
+
+
 def _event_lines(ax: Any, data: RunData, *, estimated_onset: bool = True) -> None:
     """Vertical lines: true fault onset/end, anomaly declaration and its estimated onset."""
     seen: set[str] = set()
@@ -51,7 +55,8 @@ def _event_lines(ax: Any, data: RunData, *, estimated_onset: bool = True) -> Non
             t = declared_epoch(r)
             label = (f"anomaly declared ({len(decl)} times)" if many
                      else f"anomaly declared day {data.day(t):.2f}: {r.anomaly_class}")
-            vline(t, label, color="black", linestyle="-")
+            # not black: the combined solution is drawn solid black on the same axes
+            vline(t, label, color=DECLARATION_COLOR, linestyle="-")
             if estimated_onset and r.onset_s is not None:
                 vline(r.onset_s, "estimated onset" if many else f"estimated onset day {data.day(r.onset_s):.2f}",
                       color="dimgray", linestyle="-.")
@@ -192,6 +197,7 @@ def plot_anomaly_statistic(data: RunData, path: Path | None = None) -> Any:
     top = np.nanmax(np.concatenate([an.statistic, an.threshold])) if len(days) else 1.0
     if np.isfinite(top) and top > 0 and np.nanmax(an.threshold, initial=0.0) > 0 and top / np.nanmax(an.threshold) > 20:
         ax.set_yscale("symlog", linthresh=max(float(np.nanmax(an.threshold)), 1e-3))
+    ax.set_ylim(bottom=0.0)  # D is non-negative: no room below zero
     ax.set_ylabel("statistic D [-]")
     _time_axis(ax, data)
     net = f" on '{an.network}' weights" if an.network else ""
@@ -227,7 +233,7 @@ def plot_budget(data: RunData, path: Path | None = None) -> Any:
     ax2.plot(days, b.deferred, drawstyle="steps-post", color="tab:olive", linewidth=1.0, alpha=0.8, label="stages deferred")
     ax2.set_ylabel("count [-]")
     peak = int(max(b.backlog.max(initial=0), b.deferred.max(initial=0)))
-    ax2.set_ylim(bottom=-0.05 * max(peak, 1), top=max(peak, 1) * 1.1)
+    ax2.set_ylim(bottom=0.0, top=max(peak, 1) * 1.1)  # counts: nothing below zero
     ax2.yaxis.get_major_locator().set_params(integer=True)
     if peak == 0:
         ax2.text(0.5, 0.5, "no backlog and no deferred stages during the run", transform=ax2.transAxes,

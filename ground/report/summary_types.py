@@ -247,9 +247,13 @@ class RunSummary(JsonRecord):
     filters: tuple[str, ...] = spec(doc="the bank's filters, in the order they reported")
     gating: dict[str, GatingEntry] = spec(doc="per gating network")
     anomaly: AnomalyBlock = spec(doc="the onboard detector's verdict")
-    position_error_rms_km: dict[str, float] = spec(doc="per filter (and combined, best)", unit="km")
-    position_error_final_km: dict[str, float] = spec(doc="per filter, at the last estimate", unit="km")
-    position_within_3sigma: dict[str, float] = spec(doc="per filter, fraction of estimates within 3 sigma", unit="1")
+    position_error_rms_km: dict[str, float] = spec(
+        doc="RMS position error against truth over the run, per filter and for 'combined' (the gating-weighted "
+        "sum of the enabled filters, weights of the detector's network) and 'best' (the filter navigated on: "
+        "smallest RTPC until an anomaly is declared, then the highest-weighted)", unit="km")
+    position_error_final_km: dict[str, float] = spec(doc="per solution (as above), at the last estimate", unit="km")
+    position_within_3sigma: dict[str, float] = spec(
+        doc="per solution, fraction of estimates whose position error is at most 3 RTPC", unit="1")
     budget: BudgetBlock = spec(doc="the frame executive")
     wall_time_s: float | None = spec(doc="wall-clock time of the run", unit="s")
     monitors: dict[str, MonitorBlock] | None = spec(None, doc="further detectors replayed on the run, per network")

@@ -114,6 +114,14 @@ def thruster_scale_truth(forces: ForceModelConfig) -> ForceModelConfig:
     return dataclasses.replace(forces, acs_scale=10.0)
 
 
+#: (launch, arrival) of each trajectory design's mission, ISO 8601 UTC (public NASA/JPL facts;
+#: see :class:`TrajectoryConfig`).
+MISSION_EPOCHS: dict[str, tuple[str, str]] = {
+    "insight-approach": ("2018-05-05T11:05:00", "2018-11-26T19:52:59"),
+    "pathfinder-cruise": ("1996-12-04T06:58:07", "1997-07-04T16:57:00"),
+}
+
+
 @dataclass(frozen=True, slots=True)
 class TrajectoryConfig:
     """The trajectory: which built-in design (``kind``) and its defining numbers.
@@ -133,6 +141,12 @@ class TrajectoryConfig:
     InSight's Type-I transfer: the heliocentric two-body orbit of the initial state passes
     within 0.002 AU of Earth at launch (2018-05-05 11:05 UTC) with v_inf 2.8 km/s (InSight's
     launch C3 of 8.2 km^2/s^2 is v_inf 2.86 km/s), perihelion 1.01 AU, 2.3 deg to the ecliptic.
+
+    Launch and arrival epochs left null are the design's own mission's (:data:`MISSION_EPOCHS`):
+    public NASA/JPL facts, InSight launched 2018-05-05 11:05 UTC from Vandenberg and landed
+    2018-11-26 19:52:59 UTC (Earth-received time, as the entry epoch); Mars Pathfinder launched
+    1996-12-04 06:58:07 UTC and landed 1997-07-04 16:57 UTC. Only pathfinder-cruise flies them
+    (its Lambert transfer); the InSight approach is defined by its entry.
     """
 
     kind: Literal["insight-approach", "pathfinder-cruise"] = spec(
@@ -149,11 +163,15 @@ class TrajectoryConfig:
         45.0, doc="length of the arc (insight-approach: ending at entry; pathfinder-cruise: from its start)",
         unit="day", gt=0.0, le=400.0,
     )
-    launch_epoch_utc: str = spec(
-        "1996-12-04T06:58:07", doc="pathfinder-cruise: launch (Lambert departure from Earth), ISO 8601 UTC"
+    launch_epoch_utc: str | None = spec(
+        None, doc="launch, ISO 8601 UTC; pathfinder-cruise: the Lambert departure from Earth; "
+        "null: the design's mission (insight-approach: InSight 2018-05-05T11:05:00, pathfinder-cruise: "
+        "Mars Pathfinder 1996-12-04T06:58:07)"
     )
-    arrival_epoch_utc: str = spec(
-        "1997-07-04T16:57:00", doc="pathfinder-cruise: Mars arrival (Lambert arrival at Mars' centre), ISO 8601 UTC"
+    arrival_epoch_utc: str | None = spec(
+        None, doc="Mars arrival, ISO 8601 UTC; pathfinder-cruise: the Lambert arrival at Mars' centre; "
+        "null: the design's mission (insight-approach: InSight's landing 2018-11-26T19:52:59, "
+        "pathfinder-cruise: Mars Pathfinder's 1997-07-04T16:57:00)"
     )
     cruise_start_offset_days: float = spec(
         1.0, doc="pathfinder-cruise: start of the simulated arc after launch", unit="day", gt=0.0
@@ -166,3 +184,11 @@ class TrajectoryConfig:
     atol_km: float = spec(1e-6, doc="integrator absolute tolerance on position", unit="km", gt=0.0)
     atol_km_s: float = spec(1e-12, doc="integrator absolute tolerance on velocity", unit="km/s", gt=0.0)
     ephemeris_step_s: float = spec(1800.0, doc="grid step of the interpolated ephemeris table", unit="s", gt=0.0)
+
+    def launch_epoch(self) -> str:
+        """The launch epoch, ISO 8601 UTC: the configured one, else the design's mission's."""
+        return self.launch_epoch_utc or MISSION_EPOCHS[self.kind][0]
+
+    def arrival_epoch(self) -> str:
+        """The Mars arrival epoch, ISO 8601 UTC: the configured one, else the design's mission's."""
+        return self.arrival_epoch_utc or MISSION_EPOCHS[self.kind][1]

@@ -81,7 +81,7 @@ MAGNITUDE_FIELDS: tuple[str, ...] = (
 class FaultConfig:
     """One injected fault: type, window (days since scenario start) and magnitude."""
 
-    type: FaultType = spec(doc="fault type (see sim.faults.config)")
+    type: FaultType = spec(doc="fault type (docs/scenarios.md#faults: the fields each type takes)")
     onset_day: float = spec(doc="onset, days since scenario start", unit="day", ge=0.0)
     end_day: float | None = spec(None, doc="end, days since scenario start (none: until the end of the run)", unit="day")
     id: str = spec("", doc="identifier in truth/fault events (default: '<type>-<index>')")

@@ -48,8 +48,8 @@ _MAX_ITERATIONS = 12
 
 def cruise_span(cfg: TrajectoryConfig) -> tuple[float, float]:
     """(t_start, t_end) TDB of the simulated cruise arc."""
-    t_launch = utc_iso_to_tdb(cfg.launch_epoch_utc)
-    t_arrival = utc_iso_to_tdb(cfg.arrival_epoch_utc)
+    t_launch = utc_iso_to_tdb(cfg.launch_epoch())
+    t_arrival = utc_iso_to_tdb(cfg.arrival_epoch())
     t0 = t_launch + cfg.cruise_start_offset_days * SECONDS_PER_DAY
     t1 = t0 + cfg.span_days * SECONDS_PER_DAY
     if not t_arrival > t_launch:
@@ -62,8 +62,8 @@ def cruise_span(cfg: TrajectoryConfig) -> tuple[float, float]:
 def transfer_conic(cfg: TrajectoryConfig) -> tuple[float, np.ndarray, np.ndarray, float]:
     """(t_launch, r_earth, v_departure, t_arrival): heliocentric ICRF Lambert departure state."""
     eph = default_ephemeris()
-    t_launch = utc_iso_to_tdb(cfg.launch_epoch_utc)
-    t_arrival = utc_iso_to_tdb(cfg.arrival_epoch_utc)
+    t_launch = utc_iso_to_tdb(cfg.launch_epoch())
+    t_arrival = utc_iso_to_tdb(cfg.arrival_epoch())
     r_earth, _ = eph.state("earth", t_launch, "sun")
     r_mars, _ = eph.state("mars", t_arrival, "sun")
     v1, _ = lambert(r_earth, r_mars, t_arrival - t_launch, GM_SUN)
@@ -90,7 +90,7 @@ def _sun_from_mars(t: float) -> np.ndarray:
 @lru_cache(maxsize=16)
 def _initial_state_cached(cfg: TrajectoryConfig, forces: ForceModelConfig) -> tuple[float, tuple[float, ...], float]:
     t0, _ = cruise_span(cfg)
-    t_arrival = utc_iso_to_tdb(cfg.arrival_epoch_utc)
+    t_arrival = utc_iso_to_tdb(cfg.arrival_epoch())
     t_aim = t_arrival - cfg.aim_days_before_arrival * SECONDS_PER_DAY
     helio0 = conic_state(cfg, t0)
     target = conic_state(cfg, t_aim)[:3] + _sun_from_mars(t_aim)[:3]

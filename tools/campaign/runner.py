@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any, Callable, TextIO
 from ground.report.row_types import ResultRow
 from tools.campaign.executors import Executor
 from tools.campaign.plan import CampaignPlan
-from tools.campaign.progress import ProgressLine
+from tools.campaign.progress import CampaignProgress
 from tools.campaign.store import PLAN, RunStore, write_json_atomic
 from tools.campaign.task import RunTask
 from tools.campaign.worker import base_row, error_record
@@ -119,7 +119,7 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
         if _is_factory(executor):
             executor = owned = executor()
         out.executor, out.workers = executor.name, executor.capacity
-        progress = None if quiet else ProgressLine(len(tasks), label=plan.name, stream=progress_stream)
+        progress = None if quiet else CampaignProgress(len(tasks), label=plan.name, stream=progress_stream)
         pending = deque(tasks)
         inflight: dict[object, RunTask] = {}
         announced = False
@@ -158,6 +158,8 @@ def run_campaign(plan: CampaignPlan, out_dir: str | Path, executor: Executor | C
                         row = dataclasses.replace(result.row, campaign=plan.name, executor=executor.name)
                         if result.weights is not None and row.status == "ok":
                             store.save_weights(task.id, result.weights)
+                        if result.mcap is not None and row.status == "ok":
+                            store.save_mcap(task.id, result.mcap)
                     store.append(row)
                     ok = row.status == "ok"
                     out.finished += 1

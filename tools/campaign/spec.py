@@ -44,7 +44,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from fsw.config import GatingEntry
 from fsw.interface import typed
@@ -74,7 +74,8 @@ class FaultCase:
         if self.preset is None and not self.faults:
             raise ValueError("a fault case needs a preset (e.g. 'none') or a list of faults")
         if self.preset is not None and self.preset not in FAULT_PRESETS:
-            raise ValueError(f"unknown fault preset {self.preset!r}; known: {', '.join(FAULT_PRESETS)}")
+            raise ValueError(f"unknown fault preset {self.preset!r}{typed.did_you_mean(self.preset, FAULT_PRESETS)}; "
+                             f"known: {', '.join(FAULT_PRESETS)}")
         if self.preset is None and not self.name:
             raise ValueError("a custom fault case needs a name")
         if self.faults and self.onset_day is not None:
@@ -175,6 +176,12 @@ class SeedPlan:
         return range(self.base, self.base + self.count)
 
 
+KeepMcap = Literal["none", "failed", "detected", "all"]
+KEEP_MCAP_DOC = ("runs that keep an MCAP recording (mcap/<id>.mcap), for navbank report and replay --rerun: none; "
+                 "failed (the detector missed the injected fault, declared a false alarm or the wrong class); "
+                 "detected (an anomaly was declared); all")
+
+
 @dataclass(frozen=True)
 class CampaignConfig:
     """A fault-injection campaign."""
@@ -185,6 +192,7 @@ class CampaignConfig:
     seeds: SeedPlan = spec(default_factory=SeedPlan, doc="seeds per cell")
     onset_day: float | None = spec(None, doc="default onset of preset faults", unit="day", ge=0.0)
     overrides: dict[str, Any] = spec(default_factory=dict, doc="scenario keys changed in every run (dotted or nested)")
+    keep_mcap: KeepMcap = spec("none", doc=KEEP_MCAP_DOC)
     keep_weights: tuple[str, ...] = spec(
         (), doc="gating networks whose weight histories every run stores (weights/<network>/<id>.npz); "
         "each is added to the gating list with defaults if absent"
@@ -238,6 +246,6 @@ def load_campaign(name_or_path: str) -> LoadedCampaign:
     res = builtin_dir().joinpath(f"{name_or_path}.yaml")
     if not res.is_file():
         raise ConfigError(name_or_path, None, "", "a built-in campaign (" + ", ".join(builtin_names()) + ") or a YAML file",
-                          "unknown name")
+                          "unknown name" + typed.did_you_mean(name_or_path, builtin_names()))
     return load_campaign_text(res.read_text(encoding="utf-8"), f"<built-in campaign {name_or_path}>",
                               Path(str(builtin_dir())))

@@ -7,7 +7,8 @@ appending, so a resumed campaign never glues a new row onto half an old one. A l
 same id (``--rerun-failed``) supersedes the earlier one.
 
 Weight histories (``navbank calibrate``, campaigns' ``keep_weights``) go to ``weights/<network>/<id>.npz``, written to a temporary name
-and renamed *before* the row is appended: a row never points at a missing or partial file.
+and renamed *before* the row is appended: a row never points at a missing or partial file. Run
+recordings (campaigns' ``keep_mcap``) go to ``mcap/<id>.mcap`` the same way.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from ground.report.run_weights import RunWeights
 RUNS = "runs.jsonl"
 PLAN = "plan.json"
 WEIGHTS = "weights"
+MCAP = "mcap"
 SUMMARY = "summary.json"
 REPORT = "report.md"
 
@@ -151,6 +153,22 @@ class RunStore:
         except OSError as exc:
             # a write on a descriptor names no file; a full disk must say which one it was
             raise _named(exc, self.path) from None
+
+    def save_mcap(self, run_id: str, data: bytes) -> Path:
+        """Store a run's recording as ``mcap/<run_id>.mcap`` (atomic, like the weights)."""
+        mdir = self.dir / MCAP
+        mdir.mkdir(parents=True, exist_ok=True)
+        final = mdir / f"{run_id}.mcap"
+        tmp = mdir / f".{run_id}.tmp.mcap"
+        try:
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+        except OSError as exc:
+            raise _named(exc, tmp) from None
+        os.replace(tmp, final)
+        return final
 
     def save_weights(self, run_id: str, histories: dict[str, RunWeights]) -> list[Path]:
         """Store each network's weight history as ``weights/<network>/<run_id>.npz`` (atomic)."""

@@ -25,6 +25,7 @@ class RunTask(JsonRecord):
     detector_calibrated: bool = spec(doc="the onboard detector has a calibration")
     span_days: float = spec(doc="length of the run", unit="d")
     extract_weights: tuple[str, ...] = spec((), doc="networks whose weight histories the run keeps")
+    keep_mcap: str = spec("none", doc="which runs keep an MCAP recording: none, failed, detected, all")
     monitors: dict[str, dict[str, Any]] = spec(default_factory=dict,
                                                doc="monitored network -> DetectorConfig data")
 

@@ -4,8 +4,8 @@ The function is importable by name (``tools.campaign.worker.execute``) so a spaw
 and a dask worker run the same code. Its input and output are declared records: a
 :class:`~tools.campaign.task.RunTask` in, a :class:`RunOutcome` out — the
 :class:`~ground.report.row_types.ResultRow` (the run's summary, id, cell, seed, status, error, wall
-time) and, on request, gating networks' weight histories as compact arrays — never the run's
-messages, which are ~10^5 objects for a 45-day run.
+time) and, on request, gating networks' weight histories as compact arrays and the run's MCAP
+recording (campaigns' ``keep_mcap``) — never the run's messages as objects, ~10^5 for a 45-day run.
 
 Monitors (``task.monitors``: network -> detector calibration) are further anomaly
 detectors evaluated on the same run: each network's FilterWeights stream is replayed, in order,
@@ -39,6 +39,7 @@ from ground.report.row_types import ResultRow
 from ground.report.run_facts import anomaly_summary
 from ground.report.run_weights import RunWeights
 from ground.report.summary_types import ErrorRecord, MonitorBlock
+from tools.campaign.run_mcap import keeps, mcap_bytes
 from tools.campaign.task import RunTask
 from tools.inprocess import RunResult, run_in_process
 from tools.scenario import ScenarioConfig
@@ -135,6 +136,7 @@ class RunOutcome:
 
     row: ResultRow
     weights: dict[str, RunWeights] | None = None
+    mcap: bytes | None = None  # the run's recording, when the task's keep_mcap keeps it
 
 
 def execute(task: RunTask) -> RunOutcome:
@@ -142,6 +144,7 @@ def execute(task: RunTask) -> RunOutcome:
     t0 = time.perf_counter()
     row = dataclasses.replace(base_row(task), host=socket.gethostname(), pid=os.getpid())
     weights = None
+    recording = None
     try:
         cfg = typed.decode(ScenarioConfig, task.scenario)
         result = run_in_process(cfg, task.seed, fault_label=task.fault_label, run_id=task.id)
@@ -150,10 +153,12 @@ def execute(task: RunTask) -> RunOutcome:
         summary = result.summary
         if task.monitors:
             summary = dataclasses.replace(summary, monitors=monitor_summaries(result, task.monitors))
+        if keeps(task.keep_mcap, summary):
+            recording = mcap_bytes(result, task.id)
         row = dataclasses.replace(row, status="ok", error=None, summary=summary)
         del result
     except Exception as exc:  # a failed run is data for the campaign, not the end of it
         row = dataclasses.replace(row, status="failed", error=error_record(exc), summary=None)
     return RunOutcome(dataclasses.replace(row, wall_time_s=time.perf_counter() - t0,
                                           finished_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())),
-                      weights)
+                      weights, recording)

@@ -23,6 +23,8 @@ flown in process by a worker. One JSON line per finished run goes to DIR/runs.js
 id, cell, seed, status, error, wall time). Re-running the same command resumes: finished runs
 are skipped; --rerun-failed re-runs only the failed ones. At the end (and with --stats-only DIR)
 the statistics are recomputed from runs.jsonl into DIR/summary.json and DIR/report.md.
+With `keep_mcap: failed|detected|all` in the campaign file, the chosen runs also keep their
+recording as DIR/mcap/<id>.mcap (navbank report and navbank replay --rerun read it).
 
 Ctrl-C stops submitting and lets running runs finish (a second Ctrl-C cancels them); the exit
 code is then 130. Exit code 1 means some runs failed (see report.md), 2 a configuration error."""

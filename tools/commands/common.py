@@ -1,8 +1,7 @@
-"""Options and helpers several subcommands share (scenario selection, run ids, progress)."""
+"""Options and helpers several subcommands share (scenario selection, run ids)."""
 
 from __future__ import annotations
 
-import sys
 import time
 import uuid
 
@@ -29,28 +28,3 @@ def scenario_from_args(args) -> ScenarioConfig:
 
 def new_run_id() -> str:
     return time.strftime("%Y%m%d-%H%M%S") + "-" + uuid.uuid4().hex[:6]
-
-
-class ProgressBar:
-    """One updating line on stderr: fraction, ETA."""
-
-    def __init__(self, label: str, stream=sys.stderr):
-        self.label = label
-        self.stream = stream
-        self.t0 = time.monotonic()
-        self._tty = stream.isatty()
-        self._last = -1.0
-
-    def __call__(self, fraction: float, extra: str = "") -> None:
-        now = time.monotonic()
-        if not self._tty and fraction < 1.0 and now - self._last < 5.0:
-            return
-        self._last = now
-        elapsed = now - self.t0
-        eta = elapsed * (1 - fraction) / fraction if fraction > 0 else float("nan")
-        width = 30
-        fill = int(round(width * min(max(fraction, 0.0), 1.0)))
-        line = (f"{self.label} [{'#' * fill}{'.' * (width - fill)}] {100 * fraction:5.1f} %  "
-                f"elapsed {elapsed:5.0f} s  eta {eta:5.0f} s {extra}")
-        end = "\r" if self._tty and fraction < 1.0 else "\n"
-        print(line, end=end, file=self.stream, flush=True)

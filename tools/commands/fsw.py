@@ -13,7 +13,8 @@ from tools.commands.arg_types import run_id_arg
 from tools.commands.errors import UsageError
 from tools.commands.outputs import check_output_file
 from tools.commands.common import add_scenario_arguments, scenario_from_args
-from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
+from tools.commands.transport_args import add_transport_arguments
+from tools.rendezvous import joined
 from tools.scenario import resolve
 
 NAME = "fsw"
@@ -53,9 +54,10 @@ def run(args) -> int:
     if args.checkpoint is not None:
         check_output_file(args.checkpoint, "--checkpoint")
     try:
-        counts = run_fsw(fsw_cfg, args.run_id, transport_config_from_args(args), consumers=consumers,
-                         progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout,
-                         checkpoint_path=args.checkpoint, resume=args.resume, hold_for_logger_s=args.hold_for_logger)
+        with joined(args, args.run_id, "fsw") as transport:
+            counts = run_fsw(fsw_cfg, args.run_id, transport, consumers=consumers,
+                             progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout,
+                             checkpoint_path=args.checkpoint, resume=args.resume, hold_for_logger_s=args.hold_for_logger)
     except CheckpointError as exc:
         print(f"navbank fsw: {exc}", file=sys.stderr)
         return 2

@@ -9,7 +9,8 @@ from fsw.transport import TransportError
 from ground import logger
 from tools.commands.arg_types import run_id_arg
 from tools.commands.outputs import check_output_file, write_error_line
-from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
+from tools.commands.transport_args import add_transport_arguments
+from tools.rendezvous import joined
 
 NAME = "ground"
 HELP = "ground tools: `navbank ground log` records a run to MCAP"
@@ -18,9 +19,24 @@ navbank/<run-id>/** and writes one MCAP file (opens in Foxglove) until the simul
 have ended their streams, or until SIGINT/SIGTERM (the file is always finished properly)."""
 
 
+LOG_DESCRIPTION = """Record every message of run ID (Zenoh keys navbank/<run-id>/**) into one MCAP file that
+Foxglove opens: ICD topics on channels with their JSON Schema, anything else on schema-less
+channels, payloads that fail strict decoding on /_invalid/<topic> (counted, never dropped).
+
+It stops by itself once every producer (--producers, default sim and fsw) has published its
+end-of-run status and everything announced has been recorded; on SIGINT/SIGTERM or --duration
+it stops too, and the file is always finished. A killed logger (SIGKILL) leaves a file that
+`navbank recover` completes.
+
+Without transport options it listens on a free loopback port, prints it, and announces it to
+the run's other processes on this host (navbank sim, fsw and replay with the same --run-id and
+no transport options connect to it by themselves). --listen/--connect put processes on
+different hosts or behind a router."""
+
+
 def add_arguments(p) -> None:
     sub = p.add_subparsers(dest="ground_command", metavar="TOOL", required=True)
-    log = sub.add_parser("log", help="record a run to one MCAP file", description=logger.__doc__)
+    log = sub.add_parser("log", help="record a run to one MCAP file", description=LOG_DESCRIPTION)
     _add_log_arguments(log)
     log.set_defaults(_name="ground log")  # how its errors are signed
 
@@ -47,20 +63,20 @@ def _log(args) -> int:
     """Run ``navbank ground log``; 0 on success, 1 if the network or the file failed."""
     check_output_file(args.out)  # before subscribing: exit 2 for a file we could not write
     try:
-        cfg = transport_config_from_args(args)
         producers = tuple(p.strip() for p in args.producers.split(",") if p.strip())
-        logger.run_logger(
-            args.run_id,
-            args.out,
-            cfg,
-            producers=producers,
-            until_end_of_run=not args.no_wait_end and bool(producers),
-            max_duration_s=args.duration,
-            validate=not args.no_validate,
-            attachments=args.attach,
-            flush_interval_s=args.flush_interval,
-            after=args.after,
-        )
+        with joined(args, args.run_id, "ground", name="ground log") as cfg:
+            logger.run_logger(
+                args.run_id,
+                args.out,
+                cfg,
+                producers=producers,
+                until_end_of_run=not args.no_wait_end and bool(producers),
+                max_duration_s=args.duration,
+                validate=not args.no_validate,
+                attachments=args.attach,
+                flush_interval_s=args.flush_interval,
+                after=args.after,
+            )
     except OSError as exc:
         # the only file the logger writes is --out; an error from write() or flush() carries no
         # file name, so name it here (an attachment that cannot be read names itself)

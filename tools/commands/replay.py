@@ -10,8 +10,9 @@ import fsw.transport as tp
 from fsw.interface.yamlconfig import ConfigError
 from tools.commands.arg_types import run_id_arg
 from tools.commands.common import new_run_id
-from tools.commands.outputs import check_output_file
-from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
+from tools.commands.outputs import check_output_dir, check_output_file
+from tools.commands.transport_args import add_transport_arguments
+from tools.rendezvous import joined
 
 NAME = "replay"
 HELP = "republish a recorded run over Zenoh, or re-run its FSW on the recorded measurements (--rerun)"
@@ -30,7 +31,7 @@ DESCRIPTION = """Two ways to replay a run recorded by `navbank run` / `navbank g
       Without --consumers nothing is waited for: start displays/loggers (and --connect to
       them) first, or the first messages go out before anyone subscribes.
 
-  navbank replay RUN.mcap --rerun [--set fsw.PATH=VALUE ...] [--config FILE] [--tolerance T]
+  navbank replay RUN.mcap --rerun [--set fsw.PATH=VALUE ...] [--config FILE] [--tolerance T] [--out DIR]
       feeds the recorded measurements into a fresh FSW in this process, built from the
       configuration attached to the run (its fsw: section), and compares its telemetry with
       the recorded /fsw/... messages: counts per topic and the largest absolute difference per
@@ -38,7 +39,9 @@ DESCRIPTION = """Two ways to replay a run recorded by `navbank run` / `navbank g
       Runs in work-unit budget mode are deterministic; runs in CPU mode are re-run in CPU mode
       and may legitimately differ in budget reports (compared by count only) and in
       combined/best estimates. --set/--config change the FSW to see a change show up, e.g.
-      --set fsw.gating[0].sigma_w=0.1."""
+      --set fsw.gating[0].sigma_w=0.1. A change to the parameters of the network a calibrated
+      detector watches is flagged: the calibration no longer applies. --out DIR also writes
+      the re-run as a run (DIR/run.mcap, DIR/config.yaml) that `navbank report DIR` draws."""
 
 
 def _fail(message: str, code: int = 2) -> int:
@@ -68,6 +71,9 @@ def add_arguments(p) -> None:
     r.add_argument("--tolerance", type=float, default=0.0, metavar="T", help="largest absolute difference accepted (default 0)")
     r.add_argument("--largest", type=int, default=10, metavar="N", help="list the N largest differences (default 10)")
     r.add_argument("--json", default=None, metavar="FILE", help="also write the comparison as JSON")
+    r.add_argument("--out", default=None, metavar="DIR",
+                   help="also write the re-run as a run: DIR/run.mcap (recorded measurements and truth, the re-run's "
+                   "FSW telemetry) and DIR/config.yaml, for `navbank report DIR`")
 
 
 def _rerun(args) -> int:
@@ -79,6 +85,8 @@ def _rerun(args) -> int:
         return _fail("--tolerance must be >= 0")
     if args.json:
         check_output_file(args.json, "--json")  # before the re-run: exit 2 for a file we could not write
+    if args.out:
+        check_output_dir(args.out)
     try:
         res = rerun_and_compare(args.mcap, overrides=args.overrides, replacement=args.config, tolerance=args.tolerance)
     except ConfigError:
@@ -88,6 +96,12 @@ def _rerun(args) -> int:
     except ValueError as exc:  # a malformed --set
         return _fail(str(exc))
     print(format_result(res, largest=max(args.largest, 0)))
+    if args.out:
+        from ground.replay.rerun_record import rerun_config_text, write_rerun_run
+
+        text = rerun_config_text(res.recorded_config, res.config, res.recorded_config_name)
+        path = write_rerun_run(args.mcap, res.rerun, text, args.out, run_id=res.run_id or "rerun", changes=res.changes)
+        print(f"re-run written to {path} (navbank report {args.out})")
     if args.json:
         with open(args.json, "w", encoding="utf-8") as f:
             json.dump({"run_id": res.run_id, "changes": res.changes, "notes": res.notes, **res.comparison.to_dict()}, f, indent=2)
@@ -113,8 +127,9 @@ def _republish(args) -> int:
     print(f"navbank replay: {args.mcap} -> run {run_id} at rate {rate:g}"
           + (f", consumers {', '.join(consumers)}" if consumers else ""), file=sys.stderr)
     try:
-        res = republish(args.mcap, run_id, transport_config_from_args(args), rate=rate, consumers=consumers,
-                        consumer_timeout_s=args.consumer_timeout, progress=progress)
+        with joined(args, run_id, "replay") as cfg:
+            res = republish(args.mcap, run_id, cfg, rate=rate, consumers=consumers,
+                            consumer_timeout_s=args.consumer_timeout, progress=progress)
     except (RecordingError, McapReadError) as exc:
         return _fail(str(exc))
     except tp.TransportError as exc:

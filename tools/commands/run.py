@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 import sys
 import time
 from pathlib import Path
@@ -15,6 +15,7 @@ from tools.commands.arg_types import run_id_arg
 from tools.commands.common import add_scenario_arguments, new_run_id, scenario_from_args
 from tools.commands.outputs import check_output_dir, write_error_line
 from tools.launcher import DEFAULT_MAX_RESTARTS, Restart, RunFailed, launch, write_summary
+from tools.progress import advance_to, fsw_progress, progress_bar
 from tools.scenario import ScenarioConfig, resolve
 
 if TYPE_CHECKING:
@@ -49,10 +50,11 @@ def add_arguments(p) -> None:
     g.add_argument("--cpu-scale", type=float, default=None, metavar="X", help="charge X times the measured CPU (a slower flight processor)")
     p.add_argument("--timeout", type=float, default=3600.0, metavar="S", help="stop everything after S seconds (default 3600)")
     p.add_argument("--max-restarts", type=int, default=DEFAULT_MAX_RESTARTS, metavar="N",
-                   help=f"restart a dying FSW from its last checkpoint at most N times (default {DEFAULT_MAX_RESTARTS}; 0: never)")
+                   help=f"restart a dying FSW (from its last checkpoint) or logger (on a new segment) at most N times "
+                        f"each (default {DEFAULT_MAX_RESTARTS}; 0: never)")
     p.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
                    help="FSW checkpoint every N measurements (default: the scenario's fsw.checkpoint.every_measurements)")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, cpu_scale: float | None) -> ScenarioConfig:
@@ -154,6 +156,21 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
                                files=RunFiles(mcap=str(mcap), config=str(out / "config.yaml")))
 
 
+def _fsw_echo(bar: Any) -> Callable[[str], None]:
+    """What the launcher does with each line of the FSW's output: its progress lines move the
+    bar (simulated days of the scenario's span), anything else is printed above it."""
+
+    def echo(line: str) -> None:
+        progress = fsw_progress(line)
+        if progress is None:
+            bar.write(line, file=sys.stderr)
+        else:
+            day, rest = progress
+            advance_to(bar, day, rest.removesuffix(" done"))
+
+    return echo
+
+
 def run(args) -> int:
     from tools.summary import describe
 
@@ -172,13 +189,16 @@ def run(args) -> int:
     filters = ", ".join(f.name for f in cfg.fsw.bank.filters)
     print(f"navbank run {run_id}: scenario {cfg.name}, seed {seed}, filters {filters}; output {out}/", file=sys.stderr)
     t0 = time.perf_counter()
-    echo = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    bar = None if args.quiet else progress_bar(cfg.sim.trajectory.span_days, desc="run", unit="day")
+    echo = None if bar is None else _fsw_echo(bar)
     status: RunEnding = "complete"
     reason: str | None = None
     code = 0
     restarts: list[Restart] = []
     try:
         launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo, max_restarts=args.max_restarts, restarts=restarts)
+        if bar is not None:
+            advance_to(bar, bar.total)  # the last measurement may come a little before the span's end
     except RunFailed as exc:
         status, reason, code = "failed", str(exc), 1
         print(f"navbank run: {exc}", file=sys.stderr)
@@ -189,6 +209,9 @@ def run(args) -> int:
     except OSError as exc:  # the configuration file, written first (e.g. the disk filled up meanwhile)
         print(f"navbank run: {write_error_line(exc, out / 'config.yaml')}", file=sys.stderr)
         return 1
+    finally:
+        if bar is not None:
+            bar.close()
     wall = time.perf_counter() - t0
     summary = _summary(cfg, seed, run_id, out, args.fault, wall, status, reason,
                        restarts if args.max_restarts > 0 else None)

@@ -9,9 +9,11 @@ import fsw.transport as tp
 from sim.stream import generate
 from tools.commands.errors import UsageError
 from tools.commands.arg_types import run_id_arg
-from tools.commands.common import ProgressBar, add_scenario_arguments, scenario_from_args
+from tools.commands.common import add_scenario_arguments, scenario_from_args
 from tools.commands.outputs import check_output_file, write_error_line
-from tools.commands.transport_args import add_transport_arguments, transport_config_from_args
+from tools.commands.transport_args import add_transport_arguments
+from tools.rendezvous import joined
+from tools.progress import advance_to, progress_bar
 from tools.scenario import resolve
 
 NAME = "sim"
@@ -80,13 +82,19 @@ def run(args) -> int:
         from sim.app import publish_run
 
         consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
+        span = cfg.sim.trajectory.span_days
+        bar = progress_bar(span, desc="sim", unit="day")
         try:
-            counts = publish_run(run_, args.run_id, transport_config_from_args(args), consumers=consumers,
-                                 credit_role="fsw" if "fsw" in consumers else None, window=args.window,
-                                 rate=args.rate, progress=ProgressBar("sim"), hold_for_logger_s=args.hold_for_logger)
+            with joined(args, args.run_id, "sim") as transport:
+                counts = publish_run(run_, args.run_id, transport, consumers=consumers,
+                                     credit_role="fsw" if "fsw" in consumers else None, window=args.window,
+                                     rate=args.rate, progress=lambda fraction: advance_to(bar, fraction * span),
+                                     hold_for_logger_s=args.hold_for_logger)
         except tp.TransportError as exc:
+            bar.close()
             print(f"navbank sim: {exc}", file=sys.stderr)
             return 1
+        bar.close()
         if counts.get("consumer_restarts"):
             print(f"sim: the FSW restarted {counts['consumer_restarts']} time(s); {counts['resent']} measurements "
                   "sent again after its checkpoints", file=sys.stderr)

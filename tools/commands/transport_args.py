@@ -10,7 +10,7 @@ from fsw.transport import TransportConfig
 def add_transport_arguments(parser: argparse.ArgumentParser) -> None:
     """``--listen/--connect/--zenoh-config/--client/--no-gossip/--connect-timeout`` options."""
     g = parser.add_argument_group("transport (Zenoh)")
-    g.add_argument("--listen", action="append", default=None, metavar="EP", help="endpoint to listen on (repeatable; default tcp/127.0.0.1:0)")
+    g.add_argument("--listen", action="append", default=None, metavar="EP", help="endpoint to listen on (repeatable; default: a free 127.0.0.1 port, found by the run's processes on this host)")
     g.add_argument("--connect", action="append", default=None, metavar="EP", help="endpoint to connect to (repeatable), e.g. tcp/127.0.0.1:7447")
     g.add_argument("--zenoh-config", default=None, metavar="FILE", help="Zenoh JSON5 config file (TLS, auth, access control)")
     g.add_argument("--client", action="store_true", help="client mode (connect through a Zenoh router)")
