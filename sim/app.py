@@ -19,7 +19,7 @@ import fsw.transport as tp
 from fsw.astro.time import tdb_to_unix
 from fsw.interface import topics
 from fsw.interface.messages import Measurement, RunState, RunStatus, Stamp
-from sim.resend import ResendingPublisher
+from sim.resend import RESEND_FROM, RESENT, ResendingPublisher, Rewind
 from sim.stream import SimRun
 
 
@@ -63,6 +63,16 @@ def publish_run(
             life.hold_while_away(topics.SIM_TRUTH, hold_for_logger_s)  # only the logger takes the truth
         # a restarted FSW is sent again what came after its checkpoint (sim/resend.py)
         measurements = ResendingPublisher(pubs[topics.SIM_MEASUREMENTS])
+
+        def say_resent(rewind: Rewind) -> None:
+            # on the record: when and from where the restarted FSW was sent the stream again
+            first = rewind.resume_from
+            t = measurements.sent[first].t_s if first < len(measurements.sent) else run.t_start
+            life.put(topics.SIM_STATUS, _status(
+                run, run_id, "running", {RESEND_FROM: first, RESENT: max(0, rewind.sent - first)}, t,
+                "the FSW restarted: measurements sent again from its checkpoint"))
+
+        measurements.on_rewind = say_resent
         life.put(topics.SIM_STATUS, _status(run, run_id, "start", {"measurements": len(run.measurements)}, run.t_start))
         wall0 = time.monotonic()
         n = max(len(run.measurements), 1)

@@ -11,10 +11,16 @@ keeping references to its own measurements costs nothing beyond the list itself.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from fsw.interface.messages import Measurement
 from fsw.transport import ConsumerRestarted, Publisher
+
+
+#: Counters of the simulator's status that says it sent again: from which measurement, how many.
+RESEND_FROM = "resend_from"
+RESENT = "resent"
 
 
 @dataclass(frozen=True)
@@ -22,7 +28,7 @@ class Rewind:
     """One restart as the simulator saw it."""
 
     resume_from: int  # first measurement sent again
-    sent: int  # how many had been sent when the restart was heard of
+    sent: int  # how many had been put when the restart was heard of (sent again: sent - resume_from)
 
 
 @dataclass
@@ -33,6 +39,8 @@ class ResendingPublisher:
     sent: list[Measurement] = field(default_factory=list)
     rewinds: list[Rewind] = field(default_factory=list)
     resent: int = 0  # measurements put more than once
+    #: told of each restart before anything is sent again (the simulator says so on its status)
+    on_rewind: Callable[[Rewind], None] | None = None
     _high: int = 0  # highest sequence number + 1 ever put
 
     def put(self, msg: Measurement) -> None:
@@ -47,8 +55,11 @@ class ResendingPublisher:
 
     def _back_to(self, restart: ConsumerRestarted) -> None:
         k = max(0, min(restart.resume_from, len(self.sent)))
-        self.rewinds.append(Rewind(k, len(self.sent)))
+        rewind = Rewind(k, self._high)
+        self.rewinds.append(rewind)
         self.pub.count = k
+        if self.on_rewind is not None:
+            self.on_rewind(rewind)
 
     def _send_pending(self) -> None:
         while self.pub.count < len(self.sent):

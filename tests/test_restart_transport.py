@@ -93,11 +93,12 @@ class _Pub:
 
 def test_the_resender_goes_back_to_the_checkpoint_with_the_original_numbers():
     pub = _Pub({6: 2})
-    res = ResendingPublisher(cast(T.Publisher, pub))
+    told: list[tuple[int, int]] = []
+    res = ResendingPublisher(cast(T.Publisher, pub), on_rewind=lambda r: told.append((r.resume_from, r.sent)))
     for i in range(8):
         res.put(_measurement(i))
     assert pub.put_seqs == [0, 1, 2, 3, 4, 5, 2, 3, 4, 5, 6, 7]
-    assert res.resent == 4 and [(r.resume_from, r.sent) for r in res.rewinds] == [(2, 7)]
+    assert res.resent == 4 and [(r.resume_from, r.sent) for r in res.rewinds] == [(2, 6)] == told  # 0..5 had gone
     # a restart heard of at the end of the stream (the drain): everything after the checkpoint again
     res.rewind(T.ConsumerRestarted("fsw", 6))
     assert pub.put_seqs[-2:] == [6, 7] and pub.count == 8 and res.resent == 6

@@ -67,6 +67,8 @@ def describe(summary: RunSummary) -> str:
         for r in s.restarts.events:
             where = "" if r.checkpoint_day is None else \
                 f", went on from its checkpoint on day {r.checkpoint_day:.2f} ({r.checkpoint_measurements} measurements)"
+            if r.resent is not None:
+                where += f"; {r.resent} measurements sent again"
             lines.append(f"restart: the {r.process} process ended with code {r.exit_code} {r.at_wall_s:.1f} s into the run{where}")
         twice = sum(s.restarts.duplicates_dropped.values())
         lost = ", ".join(f"{t} {n}" for t, n in s.restarts.gaps.items()) or "nothing"

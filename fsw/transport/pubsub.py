@@ -397,13 +397,6 @@ class Subscriber:
                 return False
         return True
 
-    def missing(self, status: RunStatus) -> dict[str, int]:
-        """Per topic announced in ``status`` that we subscribe to: how many were not taken."""
-        with self._lock:
-            received = dict(self.received)
-        return {name: n - received.get(name, 0) for name, n in status.counts.items()
-                if "/" in name and self._subscribed(name) and received.get(name, 0) < n}
-
     def next_sequence(self, topic: str) -> int:
         """One past the highest publisher sequence number taken on ``topic`` (0 before any)."""
         with self._lock:

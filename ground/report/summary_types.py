@@ -194,7 +194,8 @@ class RunFiles(JsonRecord):
 class RestartEntry(JsonRecord):
     """One restart of a supervised process during a ``navbank run``."""
 
-    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"checkpoint_measurements", "checkpoint_t_s", "checkpoint_day"})
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"checkpoint_measurements", "checkpoint_t_s", "checkpoint_day",
+                                                           "resent"})
 
     process: str = spec(doc="the process restarted (fsw)")
     exit_code: int = spec(doc="how the process ended (negative: killed by that signal number)")
@@ -203,6 +204,7 @@ class RestartEntry(JsonRecord):
     checkpoint_measurements: int | None = spec(None, doc="measurements its checkpoint had taken: the restart went on after them")
     checkpoint_t_s: float | None = spec(None, doc="mission time of the checkpoint's newest measurement, TDB s past J2000", unit="s")
     checkpoint_day: float | None = spec(None, doc="the same as days since the scenario start", unit="d")
+    resent: int | None = spec(None, doc="measurements the simulator sent again to the restarted FSW (from its status)")
 
 
 @dataclass(frozen=True)

@@ -94,9 +94,11 @@ def _merge_segments(out: Path) -> list[Any]:
              "last_log_unix_s": None if s.last_log_ns is None else s.last_log_ns / 1e9} for s in merged]
 
 
-def _restarts_block(restarts: list[Restart], t0: float, mcap: Path, segments: list[Any]) -> dict[str, Any]:
-    """The summary's ``restarts`` section: the launcher's record of each restart and the logger's
-    count of what it received twice (dropped) or never (lost)."""
+def _restarts_block(restarts: list[Restart], t0: float, mcap: Path, segments: list[Any],
+                    resent: list[int]) -> dict[str, Any]:
+    """The summary's ``restarts`` section: the launcher's record of each restart, how many
+    measurements the simulator sent again after each FSW restart (``resent``, in order, from its
+    status), and the logger's count of what it received twice (dropped) or never (lost)."""
     from ground.mcap_io.reader import read_metadata
 
     try:
@@ -111,9 +113,11 @@ def _restarts_block(restarts: list[Restart], t0: float, mcap: Path, segments: li
             return {}
         return {str(k): int(v) for k, v in value.items()} if isinstance(value, dict) else {}
 
+    resent_after = iter(resent)
     events = [{"process": r.process, "exit_code": r.exit_code, "at_unix_s": r.at_unix_s, "at_wall_s": r.at_wall_s,
                "checkpoint_measurements": r.checkpoint_measurements, "checkpoint_t_s": r.checkpoint_t_s,
-               "checkpoint_day": None if r.checkpoint_t_s is None else (r.checkpoint_t_s - t0) / 86400.0}
+               "checkpoint_day": None if r.checkpoint_t_s is None else (r.checkpoint_t_s - t0) / 86400.0,
+               "resent": next(resent_after, None) if r.process == "fsw" else None}
               for r in restarts]
     return {"events": events, "duplicates_dropped": table("duplicates"), "gaps": table("gaps"), "segments": segments}
 
@@ -127,7 +131,9 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
     from ground.mcap_io.reader import is_complete, read_messages, recover
     from ground.mcap_io.reader import summary as mcap_counts
     from ground.report.run_summary import summarize
+    from fsw.interface import topics
     from ground.report.summary_types import RestartsBlock, RunFiles
+    from sim.resend import RESENT
 
     mcap = out / "run.mcap"
     try:
@@ -151,7 +157,9 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
             raise
         return {"run_id": run_id, "status": status, "reason": reason,
                 "summary_error": f"{type(exc).__name__}: {exc}"[:500], "files": {"mcap": str(out / "run.mcap")}}
-    block = None if restarts is None else RestartsBlock.from_json(_restarts_block(restarts, init.t_s, mcap, segments))
+    resent = [m.counts[RESENT] for t, m in messages if t == "/" + topics.SIM_STATUS and RESENT in m.counts]
+    block = None if restarts is None else RestartsBlock.from_json(
+        _restarts_block(restarts, init.t_s, mcap, segments, resent))
     return dataclasses.replace(summary, run_id=run_id, status=status, reason=reason, restarts=block,
                                files=RunFiles(mcap=str(mcap), config=str(out / "config.yaml")))
 
