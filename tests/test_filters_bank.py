@@ -75,7 +75,7 @@ def _meas(run, kind, **changes):
         ("optical", {"value": (1.0,), "sigma": (1.0,)}, "bad_dimension"),
         ("range", {"kind": "generic-linear"}, "unknown_kind"),
         ("range", {"source": "DSS-99"}, "unknown_source"),
-        ("optical", {"source": "vesta"}, "unknown_source"),
+        ("optical", {"source": "ganymede"}, "unknown_source"),
         ("doppler", {"count_time_s": None}, "bad_count_time"),
         ("optical", {"attitude_q": (0.0, 0.0, float("nan"), 1.0)}, "non_finite"),
         ("range", {"sigma": (float("nan"),)}, "non_finite"),

@@ -137,7 +137,7 @@ def test_doppler_is_the_range_rate_plus_c_times_frequency():
     assert d == pytest.approx((r_end - r_start) / T, abs=1e-9)
 
 
-@pytest.mark.parametrize("target", ["mars", "phobos", "deimos"])
+@pytest.mark.parametrize("target", ["mars", "phobos", "deimos", "vesta", "hygiea"])
 @pytest.mark.parametrize("aberration", [False, True])
 def test_optical_partials(target, aberration):
     st = _stack(20.0, camera=dataclasses.replace(FilterConfig(name="c").camera, aberration=aberration))

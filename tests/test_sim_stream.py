@@ -62,7 +62,8 @@ def test_stream_statistics(run):
     assert np.all((px >= 0.5) & (px <= 1024.5))
     q = np.array([x.attitude_q for x in m if x.kind == "optical"])
     np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-12)
-    assert {x.source for x in m if x.kind == "optical"} == {"mars", "phobos", "deimos"}
+    sources = {x.source for x in m if x.kind == "optical"}
+    assert {"mars", "phobos", "deimos"} <= sources and len(sources - {"mars", "phobos", "deimos"}) >= 3  # beacons
     assert all(x.count_time_s == 60.0 for x in m if x.kind == "doppler")
 
 

@@ -83,7 +83,7 @@ class Measurement:
     t_s: float = spec(doc="time tag read on the onboard clock at reception, TDB seconds past J2000", unit="s")
     timestamp: Stamp = spec(doc="time tag as Unix time (Foxglove header stamp)")
     kind: MeasurementKind = spec(doc="measurement type")
-    source: str = spec(max_length=NAME_CHARS, doc="DSN station (range/doppler, e.g. 'DSS-14'), optical target ('mars', 'phobos', 'deimos'), or a scenario label")
+    source: str = spec(max_length=NAME_CHARS, doc="DSN station (range/doppler, e.g. 'DSS-14'), optical target ('mars', 'phobos', 'deimos' or an asteroid beacon, e.g. 'vesta'), or a scenario label")
     value: tuple[float, ...] = spec(max_items=MAX_COMPONENTS, doc="observed value: range km; doppler km/s range-rate; optical [sample, line] pixel")
     sigma: tuple[float, ...] = spec(max_items=MAX_COMPONENTS, doc="1-sigma noise of each component, same units as value")
     attitude_q: tuple[float, ...] | None = spec(

@@ -4,7 +4,8 @@ Positions are in ICRF axes. Planets come from DE421 through an interpolating tab
 the solar-system barycentre (SSB), because the radiometric and optical light-time equations
 are solved in the barycentric frame (as the measurements are made); the dynamics take
 Mars-centred differences of the same table. Phobos and Deimos are the Keplerian orbits of
-:mod:`fsw.astro.moons`.
+:mod:`fsw.astro.moons`; the asteroid beacons the heliocentric two-body orbits of the onboard
+catalogue :mod:`fsw.astro.asteroids`, made Mars-centred with the table's Sun and Mars.
 
 DSN stations: the Earth-rotation chain of :mod:`fsw.astro.stations` costs ~0.5 ms a node, so
 the geocentric station state is evaluated on a 600 s grid (cached) together with the celestial
@@ -29,6 +30,7 @@ import numpy as np
 
 from fsw.astro.constants import OMEGA_EARTH_RAD_S, SECONDS_PER_DAY
 from fsw.astro.ephemeris import Ephemeris, EphemerisError, EphemerisTable, default_ephemeris
+from fsw.astro import asteroids
 from fsw.astro.moons import MOONS, moon_state
 from fsw.astro.earth import itrs_to_gcrs_matrix
 from fsw.astro.stations import StationError, station, station_state_icrf
@@ -37,8 +39,8 @@ from fsw.models.vector import cross
 #: Bodies of the table, in row order.
 TABLE_BODIES: tuple[str, ...] = ("sun", "emb", "jupiter", "earth", "mars")
 SUN, EMB, JUPITER, EARTH, MARS = range(5)
-#: Optical targets the onboard camera model knows.
-OPTICAL_TARGETS: tuple[str, ...] = ("mars", *MOONS)
+#: Optical targets the onboard camera model knows: Mars, its moons and the beacon asteroids.
+OPTICAL_TARGETS: tuple[str, ...] = ("mars", *MOONS, *asteroids.NAMES)
 
 _STATION_GRID_S = 600.0
 
@@ -157,11 +159,14 @@ class Environment:
         return r, v
 
     # -- optical targets ----------------------------------------------------------------------
-    @staticmethod
-    def target_state(name: str, t: float) -> tuple[np.ndarray, np.ndarray]:
+    def target_state(self, name: str, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Mars-centred position and velocity of an optical target."""
         if name == "mars":
             return np.zeros(3), np.zeros(3)
+        if name in asteroids.BEACONS:
+            r, v = asteroids.beacon_state(name, t)
+            p, pv = self.states_ssb(t)
+            return r + p[SUN] - p[MARS], v + pv[SUN] - pv[MARS]
         return moon_state(name, t)
 
 

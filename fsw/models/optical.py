@@ -10,7 +10,8 @@ Pinhole model with focal length f in pixels (focal length / pixel pitch) and pri
 Line of sight d from the spacecraft to the target, light-time corrected in the SSB frame (as
 the light travels): with g = r_T(t) − r(t) (Mars-centred) and w = v_T + V_M the target's SSB
 velocity, d = r_T,B(t − τ) − r_sc,B(t) = g − w τ, τ = |d|/c (the target's acceleration over
-τ is below a metre). Differentiating: dd = dg − w u·dd/c, so ∂d/∂g = I − w uᵀ/(c + u·w).
+τ moves it below a metre for the Mars system and ~1 km for an asteroid beacon 2 au away, 5e-9
+rad there). Differentiating: dd = dg − w u·dd/c, so ∂d/∂g = I − w uᵀ/(c + u·w).
 
 Optional first-order stellar aberration (off by default: the attitude comes from star trackers
 that see the same aberration): d_app = d/|d| + (v + V_M)/c.

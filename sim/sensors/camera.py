@@ -21,21 +21,29 @@ class CameraError(ValueError):
     """Bad camera geometry input (zero or non-finite direction, target behind the camera)."""
 
 
-def pointing_frame(boresight_icrf: np.ndarray) -> np.ndarray:
+def pointing_frame(boresight_icrf: np.ndarray, reference_icrf: np.ndarray | None = None) -> np.ndarray:
     """Camera -> ICRF matrices (N, 3, 3) with +z along ``boresight_icrf`` (N, 3).
 
-    Roll convention: +x (sample) is along ICRF-north x boresight (towards increasing right
-    ascension), so +y (line) points towards increasing declination. Directions
-    within 1e-6 rad of the poles fall back to ICRF x as the reference.
+    Roll: +y (line) is the part of ``reference_icrf`` (N, 3) across the boresight, so +x
+    (sample) is along reference x boresight. The default reference is ICRF north: +x then
+    points towards increasing right ascension and +y towards increasing declination.
+    Where the reference is within 1e-6 rad of the boresight, ICRF x (then y) is used instead.
     """
     b = np.asarray(boresight_icrf, dtype=float)
     n = np.linalg.norm(b, axis=-1, keepdims=True)
     if not np.all(np.isfinite(b)) or np.any(n == 0.0):
         raise CameraError("boresight must be a finite non-zero vector")
     z = b / n
-    ref = np.broadcast_to(np.array([0.0, 0.0, 1.0]), z.shape).copy()
-    polar = np.abs(z[..., 2]) > 1.0 - 5e-13
-    ref[polar] = np.array([1.0, 0.0, 0.0])
+    if reference_icrf is None:
+        ref = np.broadcast_to(np.array([0.0, 0.0, 1.0]), z.shape).copy()
+    else:
+        ref = np.broadcast_to(np.asarray(reference_icrf, dtype=float), z.shape).copy()
+        if not np.all(np.isfinite(ref)) or np.any(np.linalg.norm(ref, axis=-1) == 0.0):
+            raise CameraError("roll reference must be a finite non-zero vector")
+        ref /= np.linalg.norm(ref, axis=-1, keepdims=True)
+    for fallback in (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
+        aligned = np.abs(np.einsum("ij,ij->i", ref.reshape(-1, 3), z.reshape(-1, 3))).reshape(z.shape[:-1]) > 1.0 - 5e-13
+        ref[aligned] = fallback
     x = np.cross(ref, z)
     x /= np.linalg.norm(x, axis=-1, keepdims=True)
     y = np.cross(z, x)

@@ -11,13 +11,18 @@ Default noise levels and their sources:
   diameter) for Mars, whose centre is found from a limb fit whose error grows with the disc.
   Lubey & Ely 2022 Table 2 calls its 0.2/0.3 px "small" bias "on the order of uncertainty in the
   measurements", which this matches.
-* Attitude knowledge 5 urad per axis (1-sigma): star-tracker class, ~0.2 px at 24 urad/px.
+* Attitude knowledge from the stars in each image (``attitude_from: stars``, see
+  :mod:`sim.sensors.optical`): with stars to V = 10.5, ~27 in the 1.4 deg field on average (Liebe
+  2002), 0.3 px centroids at the limit, the fit is ~1 urad cross-boresight (0.04 px) and ~0.1 mrad
+  in roll. ``attitude_from: fixed`` keeps a constant 5 urad per axis (star-tracker class).
+* Roll: sun-keeping (line axis away from the Sun) within a +-10 deg deadband.
 
 Default schedule: three tracking passes a day, 3 h each, every 8 h from the scenario start,
 each flown by the station (Goldstone, Canberra, Madrid) that sees the spacecraft highest over
 the pass; range every 10 min and Doppler every 60 s while in a pass and above 10 deg; one
 image every 30 min cycling Mars, Phobos, Deimos (the next visible target if the scheduled one
-is not). Over 45 days: ~24,000 Doppler, ~2,400 range and ~2,100 optical measurements.
+is not), and one of a visible asteroid beacon every 2 h. Over 45 days: ~24,000 Doppler, ~2,500
+range and ~2,700 optical measurements (~2,160 of the Mars system, 540 of beacons).
 
 Pass plan (``pass_plan``, replaces the daily schedule when given): each entry is one station
 with its own periodic passes, e.g. Chaer et al.'s (1998) Mars Pathfinder cruise tracking, one 4-hour pass
@@ -29,9 +34,11 @@ day d is centred on the spacecraft's highest elevation at that station during
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from fsw.astro.stations import station
 from fsw.interface.typed import spec
+from sim.sensors.asteroids import NAMES as ASTEROIDS
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,19 +82,32 @@ class RadiometricConfig:
 
 @dataclass(frozen=True, slots=True)
 class OpticalConfig:
-    """Narrow-angle camera imaging Mars, Phobos and Deimos."""
+    """Narrow-angle camera imaging Mars, Phobos, Deimos and asteroid beacons against the stars."""
 
     enabled: bool = spec(True, doc="generate optical measurements")
-    targets: tuple[str, ...] = spec(("mars", "phobos", "deimos"), doc="targets, imaged in this cyclic order")
+    targets: tuple[str, ...] = spec(("mars", "phobos", "deimos"), doc="Mars-system targets, imaged in this cyclic order")
     image_interval_s: float = spec(1800.0, doc="image cadence", unit="s", gt=0.0)
     first_image_offset_s: float = spec(900.0, doc="first image after the scenario start", unit="s", ge=0.0)
+    beacons: tuple[str, ...] = spec(ASTEROIDS, doc="asteroid beacons (sim.sensors.asteroids names); the visible ones are imaged in turn")
+    beacon_interval_s: float = spec(7200.0, doc="cadence of the beacon images, between the Mars-system ones", unit="s", gt=0.0)
+    first_beacon_offset_s: float = spec(1800.0, doc="first beacon image after the scenario start", unit="s", ge=0.0)
     pixels: int = spec(1024, doc="detector size (square)", unit="px", gt=0)
     pixel_pitch_um: float = spec(12.0, doc="pixel pitch", unit="um", gt=0.0)
     focal_length_mm: float = spec(500.0, doc="focal length", unit="mm", gt=0.0)
     principal_point_px: tuple[float, ...] = spec(
         (512.5, 512.5), doc="principal point [sample, line]; pixel k spans [k-0.5, k+0.5)", unit="px", shape=(2,)
     )
-    attitude_knowledge_urad: float = spec(5.0, doc="attitude-knowledge error 1-sigma per camera axis", unit="urad", ge=0.0)
+    roll: Literal["north", "sun", "random"] = spec(
+        "sun", doc="roll about the boresight: line axis to ICRF north; sun-keeping (line axis away from the Sun, "
+        "within the deadband); or uniformly random")
+    roll_deadband_deg: float = spec(10.0, doc="sun-keeping roll: uniform roll error within +- this", unit="deg", ge=0.0, le=180.0)
+    attitude_from: Literal["stars", "fixed"] = spec(
+        "stars", doc="attitude knowledge from the stars in each image, or a fixed error of attitude_knowledge_urad")
+    attitude_knowledge_urad: float = spec(5.0, doc="attitude_from fixed: knowledge error 1-sigma per camera axis", unit="urad", ge=0.0)
+    limit_mag: float = spec(10.5, doc="faintest star or beacon (V magnitude) the navigation exposure detects", unit="mag")
+    star_sigma_px: float = spec(0.3, doc="centroid noise 1-sigma of a star at the limiting magnitude", unit="px", gt=0.0)
+    star_sigma_floor_px: float = spec(0.05, doc="centroid noise floor of bright stars", unit="px", gt=0.0)
+    min_stars: int = spec(3, doc="fewest stars for an attitude fix; an image with fewer is not used", ge=2)
     pointing_control_mrad: float = spec(
         1.0, doc="pointing-control error 1-sigma per cross-boresight axis (target off-centre)", unit="mrad", ge=0.0
     )
@@ -95,14 +115,20 @@ class OpticalConfig:
     sun_exclusion_deg: float = spec(30.0, doc="minimum angle between boresight and Sun", unit="deg", ge=0.0, le=180.0)
     glare_factor: float = spec(1.5, doc="a moon is lost in Mars' glare within this many Mars apparent radii", unit="1", ge=1.0)
     glare_margin_px: float = spec(5.0, doc="extra glare margin beyond glare_factor x Mars apparent radius", unit="px", ge=0.0)
-    moon_sigma_px: float = spec(0.25, doc="centroid noise 1-sigma (sample and line) for Phobos and Deimos", unit="px", gt=0.0)
+    beacon_mars_keepout_deg: float = spec(2.0, doc="a beacon closer to Mars than this (or than the moons' glare limit, if larger) is lost in its stray light", unit="deg", ge=0.0)
+    max_phase_deg: float = spec(120.0, doc="largest Sun-beacon-spacecraft phase angle imaged (H, G system's range)", unit="deg", gt=0.0, le=180.0)
+    moon_sigma_px: float = spec(0.25, doc="centroid noise 1-sigma (sample and line) for Phobos, Deimos and beacons (floor)", unit="px", gt=0.0)
     mars_sigma_floor_px: float = spec(0.25, doc="Mars centre-finding noise floor", unit="px", gt=0.0)
     mars_sigma_fraction: float = spec(1e-3, doc="Mars centre-finding noise per pixel of apparent diameter", unit="1", ge=0.0)
 
     def __post_init__(self) -> None:
         known = {"mars", "phobos", "deimos"}
-        if not self.targets or any(t not in known for t in self.targets) or len(set(self.targets)) != len(self.targets):
+        if any(t not in known for t in self.targets) or len(set(self.targets)) != len(self.targets):
             raise ValueError(f"targets must be distinct names from {sorted(known)}, got {self.targets}")
+        if any(b not in ASTEROIDS for b in self.beacons) or len(set(self.beacons)) != len(self.beacons):
+            raise ValueError(f"beacons must be distinct names from {list(ASTEROIDS)}, got {self.beacons}")
+        if not self.targets and not self.beacons:
+            raise ValueError("at least one target or beacon is needed")
 
     @property
     def focal_px(self) -> float:

@@ -14,6 +14,7 @@ import numpy as np
 from fsw.astro.ephemeris import Ephemeris, default_ephemeris
 from fsw.astro.moons import moon_state
 from fsw.astro.stations import station_state_icrf
+from sim.sensors import asteroids
 
 PositionFn = Callable[[np.ndarray], np.ndarray]
 
@@ -70,9 +71,12 @@ class Scene:
         return velocity
 
     def target(self, name: str) -> Callable[[np.ndarray], np.ndarray]:
-        """t -> barycentric position (N, 3) of an optical target: ``mars``, ``phobos``, ``deimos``."""
+        """t -> barycentric position (N, 3) of an optical target: ``mars``, ``phobos``, ``deimos``
+        or a beacon asteroid (:mod:`sim.sensors.asteroids`)."""
         if name == "mars":
             return lambda t: self.body("mars", np.atleast_1d(np.asarray(t, dtype=float)))
+        if name in asteroids.BY_NAME:
+            return lambda t: self.body("sun", np.atleast_1d(np.asarray(t, dtype=float))) + asteroids.heliocentric_state(name, t)[0]
 
         def position(t: np.ndarray) -> np.ndarray:
             t = np.atleast_1d(np.asarray(t, dtype=float))
@@ -84,6 +88,8 @@ class Scene:
         """t -> barycentric velocity (N, 3) of an optical target."""
         if name == "mars":
             return lambda t: self.body_velocity("mars", np.atleast_1d(np.asarray(t, dtype=float)))
+        if name in asteroids.BY_NAME:
+            return lambda t: self.body_velocity("sun", np.atleast_1d(np.asarray(t, dtype=float))) + asteroids.heliocentric_state(name, t)[1]
 
         def velocity(t: np.ndarray) -> np.ndarray:
             t = np.atleast_1d(np.asarray(t, dtype=float))

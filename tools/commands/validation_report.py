@@ -9,8 +9,8 @@ Run the four built-in validation campaigns first (each resumes if interrupted), 
     navbank validation-report --campaigns campaigns --out docs
 
 It reads the campaigns' runs, draws their figures (``navbank report``), runs the Chaer et al. 1997
-tracking experiments (~15 s) and the Chaer et al. 1998 Pathfinder cruise (one in-process run, ~1 min), and
-writes OUT/validation.md with OUT/figures/. A campaign directory that is missing leaves its
+tracking experiments (~15 s), the Chaer et al. 1998 Pathfinder cruise (one in-process run, ~1 min) and the
+optical-navigation camera experiment (27 optical-only runs, ~3 min), and writes OUT/validation.md with OUT/figures/. A campaign directory that is missing leaves its
 section out (the command says which). Exit codes: 0 written, 2 bad arguments or no matplotlib.
 """
 
@@ -32,6 +32,7 @@ def add_arguments(p) -> None:
                    help="directory holding the campaign directories (default ./campaigns)")
     p.add_argument("--out", metavar="DIR", default="docs", help="where validation.md and figures/ go (default ./docs)")
     p.add_argument("--no-cruise", action="store_true", help="leave out the Chaer et al. 1998 cruise run")
+    p.add_argument("--no-optical", action="store_true", help="leave out the optical-navigation camera runs")
 
 
 def run(args) -> int:
@@ -49,7 +50,7 @@ def run(args) -> int:
         print(f"navbank validation-report: no campaign {camp / n} (run: navbank campaign {n} --out {camp / n}); "
               "its section is left out", file=sys.stderr)
     try:
-        path = build(camp, Path(args.out), cruise=not args.no_cruise)
+        path = build(camp, Path(args.out), cruise=not args.no_cruise, optical=not args.no_optical)
     except PlottingUnavailable as exc:
         print(f"navbank validation-report: {exc}", file=sys.stderr)
         return 2

@@ -280,6 +280,33 @@ bank the top gate has dropped keep moving slowly; that follows from Chaer et al.
 """
 
 
+OPTICAL_DISCUSSION = """\
+**Revealed, not bounded.** A pixel bias on every centroid is, for one image, a rotation of that image's
+lines of sight about the camera's own axes; it is one *inertial* rotation of all of them only if every image
+is taken at the same roll. The previous camera did exactly that (roll about ICRF north, targets within
+0.12° of Mars), and its optical-only filter absorbed the bias by rotating the approach about Mars, with
+nominal residuals. With the sun-keeping roll the Mars-system images still share nearly one roll (the ±10°
+deadband and the slow turn of the Sun's direction), and they are four times as many as the beacon images,
+so they keep pulling the solution across the line of sight; the beacons, 12°–169° from Mars and 1.3–2.2 au
+away, cannot follow that rotation, and their residuals show the bias on every day (χ²/m ≈ 90 for the medium
+bias, ≈ 9,000 for the large one; the Mars-system residuals rise to ≈ 2 and ≈ 130 as the filter is pulled
+between the two). With a random roll the bias direction changes from image to image: the cross-LOS error
+falls about six-fold but stays beyond 3σ, and every residual shows the bias.
+
+**Nominal uncertainty.** A beacon image constrains the position only to ~1,000–2,000 km across the beacon's
+line of sight (0.25 px at 1.3–2.2 au), so the beacons lower the optical-only RTPC over days 1–30 from
+102–245 km to 101–174 km and leave it above Lubey & Ely's 10–50 km. The remaining uncertainty is mostly the
+range to Mars: navbank's optical kind measures centroids only (not Mars' apparent diameter), so range comes
+from the moons' parallax and the slow change of geometry.
+
+**Before this camera** (`main` at 3e26707, seed 1, the same measurement code): nominal RTPC 102 km on day 1
+to 245 km on day 30; medium bias cross-LOS error 932 km on day 1 and 335 km on day 30 (3σ 56 and 10 km),
+χ²/m 0.8–1.6; large bias 9,430 and 3,346 km, χ²/m 91 on day 1 and 1.0–1.6 afterwards. The Lubey & Ely
+Table 3/4 sections above were generated before this camera; their campaigns have to be run again for
+numbers that reflect it.
+"""
+
+
 DETECTION_DISCUSSION = """\
 **Reading the matrix.** All three detectors were calibrated the same way (40 nominal runs, 5 % per run), so
 their P_D columns compare sensitivity at the same nominal false-alarm target.
@@ -509,7 +536,7 @@ def render(sections: list[Section], *, generated: str, commands: list[str]) -> s
 
 
 def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
-          chaer1997: Callable[[], Any] | None = None) -> Path:
+          chaer1997: Callable[[], Any] | None = None, optical: bool = True) -> Path:
     """Write ``out_dir/validation.md`` and ``out_dir/figures/``."""
     from ground.report.build import report_campaign
     from tools.validation.chaer1997 import plot_experiment_3, run_chaer1997
@@ -550,6 +577,11 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
             sections[-1].discussion = discussion
     if "overinflated" in reports:
         sections.append(overinflated_section(campaigns_dir / "overinflated", out_dir))
+    if optical:
+        from tools.validation.optical_nav import optical_nav_section
+
+        sections.append(optical_nav_section())
+        sections[-1].discussion = OPTICAL_DISCUSSION
     # the documented procedure, whatever directories this copy was generated from
     commands = [f"navbank campaign {n} --out campaigns/{n}" for n in CAMPAIGNS]
     commands.append("navbank validation-report --campaigns campaigns --out docs")
