@@ -14,13 +14,15 @@ ground logger to confirm it has everything before closing.
 
 from __future__ import annotations
 
+import os
+import secrets
 import sys
 import time
 from typing import Callable, Sequence
 
 import fsw.transport as tp
 from fsw.config import FswConfig
-from fsw.core import FswCore
+from fsw.core import FswCore, checkpoint
 from fsw.interface import topics
 
 ALLOWED_TOPICS = (topics.SIM_MEASUREMENTS, topics.SIM_STATUS)
@@ -37,15 +39,40 @@ def run_fsw(
     progress: Callable[[str], None] | None = None,
     idle_timeout_s: float | None = None,
     handle_signals: bool = True,
+    checkpoint_path: str | os.PathLike[str] | None = None,
+    resume: str | os.PathLike[str] | None = None,
+    hold_for_logger_s: float | None = None,
 ) -> dict[str, int]:
-    """Run the FSW for run ``run_id`` until the producer's stream ends; returns its counters."""
+    """Run the FSW for run ``run_id`` until the producer's stream ends; returns its counters.
+
+    With ``checkpoint_path`` the FSW saves its state there at the configured cadence
+    (``fsw.checkpoint``), right after it starts and once the stream is complete; with ``resume``
+    it goes on from such a checkpoint (:class:`fsw.core.checkpoint.CheckpointError` if it is not
+    this run's and configuration's) and the producer resends what came after it. With
+    ``hold_for_logger_s`` telemetry waits while the logger is away (being restarted), at most
+    that long each time."""
     with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=handle_signals) as life:
-        core = FswCore(config, life.put, run_id=run_id)
+        restored = None if resume is None else checkpoint.read(resume, config, run_id, life.put)
+        if restored is None:
+            core = FswCore(config, life.put, run_id=run_id)
+        else:
+            core = restored.core
+            life.restore_publishers(restored.published)
+        if hold_for_logger_s is not None:
+            life.hold_while_away(topics.FSW_STATUS, hold_for_logger_s)  # only the logger takes the status
         # the FIFO must hold more than the producer's credit window (see CreditWindow)
-        sub = life.subscriber(ALLOWED_TOPICS, decode=False, role="fsw", capacity=16384)
+        sub = life.subscriber(ALLOWED_TOPICS, decode=False, role="fsw", capacity=16384,
+                              resume=None if restored is None else {topics.SIM_MEASUREMENTS: restored.measurements_taken})
+        # every start of the process is told apart; a resumed one says where it goes on from
+        sub.progress_extra[tp.INCARNATION] = secrets.randbelow(2**31)
+        if restored is not None:
+            sub.progress_extra[tp.RESUMED_FROM] = restored.measurements_taken
+            if restored.producer_end is not None:
+                sub.end_of_run[producer] = restored.producer_end
         server = life.command_server(core.command, threaded=False, on_malformed=core.record_malformed_command,
                                      on_refused=core.record_refused_command)
         refused = 0
+        at_stop: dict[str, int] = {}  # counters added as it goes or stops
         core.extra_counters = lambda: {
             "refused_topics": refused,
             "transport_gaps": sum(sub.gaps.values()),
@@ -53,8 +80,26 @@ def run_fsw(
             # drain queries that would have ended the run
             "refused_commands": server.refused,
             "refused_statuses": sum(sub.refused.values()),
+            **at_stop,
         }
-        core.start()
+        if restored is None:
+            core.start()
+        ckpt = config.checkpoint
+        schedule = checkpoint.Schedule(ckpt.every_measurements, ckpt.every_s, core.taken, core.t_last)
+
+        def save() -> None:
+            if checkpoint_path is None:
+                return
+            try:
+                checkpoint.write(checkpoint_path, checkpoint.Checkpoint(
+                    core, core.taken, {t: p.count for t, p in life.publishers.items()}, sub.end_of_run.get(producer)))
+            except OSError:
+                # a full disk must not stop the flight software: the previous checkpoint stays
+                at_stop["checkpoint_errors"] = at_stop.get("checkpoint_errors", 0) + 1
+            schedule.mark(core.taken, core.t_last)
+
+        if restored is None:
+            save()  # a restart before the first cadence point goes on from the start, not from nothing
         last_data = time.monotonic()
         next_progress = 0.0
         while True:
@@ -65,12 +110,18 @@ def run_fsw(
                 last_data = now
                 if got.topic == topics.SIM_MEASUREMENTS:
                     core.ingest_payload(got.payload)
+                    if schedule.due(core.taken, core.t_last):
+                        save()
                 elif got.topic != topics.SIM_STATUS:
                     refused += 1  # truth or anything else is never let in
             elif sub.finished([producer]):
+                save()  # the producer may be gone by the time a restart would ask it to resend
                 break
             if life.should_stop():
-                # say how far it got before it goes, so the recording holds the final counters
+                # what was delivered but not yet taken is not processed either: counted, with the
+                # backlog and what the intake holds, in the status that says how far it got
+                unread = sum(1 for g in sub.drain_available() if g.topic == topics.SIM_MEASUREMENTS)
+                at_stop.update(unread=unread, unprocessed=unread + core.executive.pending_jobs + core.guard.pending)
                 core.stopped(f"stopped ({life.stop_reason()})")
                 raise KeyboardInterrupt
             if idle_timeout_s is not None and now - last_data > idle_timeout_s:

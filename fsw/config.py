@@ -101,6 +101,17 @@ class IntakeConfig:
 
 
 @dataclass(frozen=True)
+class CheckpointConfig:
+    """How often a supervised FSW saves its state (:mod:`fsw.core.checkpoint`): a restarted FSW
+    goes on from the last checkpoint and the simulator resends what came after it. Written only
+    by a process given a checkpoint file (``navbank run`` gives one); whichever limit is reached
+    first triggers the next."""
+
+    every_measurements: int = spec(500, doc="measurements taken between checkpoints (0: no count limit)", ge=0)
+    every_s: float = spec(0.0, doc="mission time between checkpoints (0: no time limit)", unit="s", ge=0)
+
+
+@dataclass(frozen=True)
 class InitialState:
     """A-priori spacecraft state uplinked to the FSW before the run (never the truth)."""
 
@@ -123,6 +134,7 @@ class FswConfig:
     telemetry: TelemetryConfig = spec(default_factory=TelemetryConfig, doc="telemetry cadences")
     reorder_window: int = spec(32, doc="out-of-order measurements within this many sequence numbers are re-ordered", ge=0)
     intake: IntakeConfig = spec(default_factory=IntakeConfig, doc="measurement plausibility limits")
+    checkpoint: CheckpointConfig = spec(default_factory=CheckpointConfig, doc="checkpoint cadence of a supervised run")
     initial_state: InitialState | None = spec(
         None, doc="a-priori state; none: the launcher derives it from the scenario (design trajectory + a-priori error draw)"
     )

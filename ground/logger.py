@@ -32,7 +32,8 @@ from typing import Any
 
 import fsw.transport as tp
 from fsw.interface import codec, topics
-from fsw.interface.messages import SCHEMA_VERSION
+from fsw.interface.messages import SCHEMA_VERSION, RunStatus
+from ground.mcap_io import segments
 from ground.mcap_io.recorder import INVALID_PREFIX, REFUSED_PREFIX, McapRecorder, publish_time_of
 
 _MEDIA_TYPES = {".yaml": "application/yaml", ".yml": "application/yaml", ".json": "application/json", ".txt": "text/plain"}
@@ -50,6 +51,7 @@ class LogResult:
     invalid: dict[str, int] = field(default_factory=dict)  # payloads that failed strict decoding
     gaps: dict[str, int] = field(default_factory=dict)  # publisher sequence numbers never received
     refused: dict[str, int] = field(default_factory=dict)  # statuses and drain queries whose authentication failed
+    duplicates: dict[str, int] = field(default_factory=dict)  # samples received again (same topic and number): dropped
     finished: tuple[str, ...] = ()  # producers whose end-of-run was fully recorded
 
     @property
@@ -61,7 +63,7 @@ class LogResult:
         width = max((len(t) for t in self.counts), default=0)
         lines += [f"  {t:<{width}}  {n:>9}" for t, n in sorted(self.counts.items())]
         for label, table in (("unknown topics", self.unknown), ("invalid payloads", self.invalid), ("gaps (lost)", self.gaps),
-                             ("refused (authentication)", self.refused)):
+                             ("duplicates (dropped)", self.duplicates), ("refused (authentication)", self.refused)):
             if table:
                 lines.append(f"  {label}: " + ", ".join(f"{t}={n}" for t, n in sorted(table.items())))
         if self.finished:
@@ -90,6 +92,7 @@ class _Writer:
         self.validate = validate
         self.unknown: dict[str, int] = {}
         self.invalid: dict[str, int] = {}
+        self.ends: set[str] = set()  # producers whose end-of-run status was recorded
 
     def _invalid(self, got: tp.Received) -> None:
         self.invalid[got.topic] = self.invalid.get(got.topic, 0) + 1
@@ -120,6 +123,46 @@ class _Writer:
                 self._invalid(got)
                 return
         self.rec.write(got.topic, got.payload, got.receive_ns, publish_time_of(message), got.pub_seq or 0)
+        if isinstance(message, RunStatus) and message.state == "end-of-run":
+            self.ends.add(message.source)
+
+
+def _record_announced_ends(sub: tp.Subscriber, write: _Writer, producers: Sequence[str],
+                           after: Sequence[str | os.PathLike]) -> None:
+    """A producer's end-of-run status that went by while no logger was up still reached this one
+    as the payload of the producer's drain query: record it, so the recording ends with the
+    producer's final counters (its own status message, stamped with the time it was learnt)."""
+    recorded = set(segments.recorded(after).end_of_run) if after else set()
+    recorded |= write.ends
+    for p in producers:
+        status = sub.end_of_run.get(p)
+        if status is None or p in recorded:
+            continue
+        topic = f"{p}/status"
+        # the FSW counts its statuses before the end one; the simulator's comes after the highest seen
+        seq = status.counts.get(topic, sub.next_sequence(topic))
+        write(tp.Received(topic, codec.to_json(status), time.time_ns(), codec.schema_name(type(status)), status, seq))
+
+
+def _gaps(sub: tp.Subscriber, producers: Sequence[str]) -> dict[str, int]:
+    """Publisher sequence numbers never recorded, per topic: for what an end-of-run announced,
+    the shortfall against it (it also covers the tail a dead logger missed); else the numbers
+    skipped."""
+    gaps = {t: n for t, n in sub.gaps.items() if n > 0}
+    received = sub.counts()
+    for p in producers:
+        status = sub.end_of_run.get(p)
+        if status is None:
+            continue
+        for t, n in status.counts.items():
+            if "/" not in t or not sub.subscribed(t):
+                continue
+            # a producer counts its statuses before the end-of-run one, which comes on top
+            expected = n + 1 if t == f"{p}/status" else n
+            gaps.pop(t, None)
+            if received.get(t, 0) < expected:
+                gaps[t] = expected - received.get(t, 0)
+    return gaps
 
 
 def run_logger(
@@ -141,6 +184,8 @@ def run_logger(
     handle_signals: bool = True,
     ready_event: Any = None,
     print_fn: Callable[[str], None] | None = print,
+    after: Sequence[str | os.PathLike] = (),
+    settle_s: float = 2.0,
 ) -> LogResult:
     """Record run ``run_id`` into ``out_path`` until it ends or is stopped (see module doc).
 
@@ -148,6 +193,11 @@ def run_logger(
     (threading or multiprocessing events); ``ready_event`` is set once the subscription is up.
     ``attachments`` are file paths or ``(name, data, media_type)`` tuples (e.g. the scenario
     YAML); ``metadata`` goes into the ``navbank.run`` metadata record next to the run id.
+
+    ``after`` names the earlier segments of the same run (a logger restarted after the previous
+    one died, :mod:`ground.mcap_io.segments`): what they hold is not recorded again, the
+    end-of-run statuses they hold count, and what went by while no logger was up is lost —
+    counted in ``gaps`` once nothing more has arrived for ``settle_s``.
     """
     topics.check_run_id(run_id)
     out_path = os.fspath(out_path)
@@ -156,7 +206,15 @@ def run_logger(
     t0 = time.monotonic()
     ended_by = "stop"
     with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=handle_signals) as life:
-        sub = life.subscriber(("**",), decode=False, role="ground", capacity=capacity)
+        # a producer that resends after a restart (the simulator to a restarted FSW, a restarted FSW
+        # its telemetry since its checkpoint) repeats sequence numbers: recorded once, counted
+        sub = life.subscriber(("**",), decode=False, role="ground", capacity=capacity, dedupe=True,
+                              settle_s=settle_s if after else None)
+        if after:
+            earlier = segments.recorded(after)
+            for topic, seqs in earlier.sequences.items():
+                sub.preload(topic, seqs)
+            sub.end_of_run.update(earlier.end_of_run)
         with McapRecorder(out_path, flush_interval_s=flush_interval_s, chunk_size=chunk_size) as rec:
             run_info = {
                 "run_id": run_id,
@@ -199,6 +257,7 @@ def run_logger(
                         break
             for got in sub.drain_available():  # delivered before we stopped: keep it
                 write(got)
+            _record_announced_ends(sub, write, producers, after)
             finished = tuple(p for p in producers if sub.finished([p]))
             result = LogResult(
                 path=out_path,
@@ -207,14 +266,16 @@ def run_logger(
                 counts=dict(rec.counts),
                 unknown=write.unknown,
                 invalid=write.invalid,
-                gaps=dict(sub.gaps),
+                gaps=_gaps(sub, producers),
+                duplicates=dict(sub.duplicates),
                 refused=dict(sub.refused),
                 finished=finished,
             )
             rec.add_metadata(
                 "navbank.logger",
                 {"ended_by": ended_by, "counts": result.counts, "unknown": result.unknown,
-                 "invalid": result.invalid, "gaps": result.gaps, "refused": result.refused,
+                 "invalid": result.invalid, "gaps": result.gaps, "duplicates": result.duplicates,
+                 "refused": result.refused,
                  "finished": list(finished)},
             )
         if ended_by == "end-of-run":

@@ -18,7 +18,8 @@ from typing import Callable, Sequence
 import fsw.transport as tp
 from fsw.astro.time import tdb_to_unix
 from fsw.interface import topics
-from fsw.interface.messages import RunState, RunStatus, Stamp
+from fsw.interface.messages import Measurement, RunState, RunStatus, Stamp
+from sim.resend import RESEND_FROM, RESENT, ResendingPublisher, Rewind
 from sim.stream import SimRun
 
 
@@ -38,11 +39,14 @@ def publish_run(
     rate: float | None = None,
     wait_s: float = 60.0,
     progress: Callable[[float], None] | None = None,
+    hold_for_logger_s: float | None = None,
 ) -> dict[str, int]:
     """Publish ``run`` under ``navbank/<run_id>/sim/...``; returns the end-of-run counts.
 
     ``consumers`` are the roles that must be up before the first message and must confirm the
-    end of the stream; ``credit_role`` (one of them) paces the measurements.
+    end of the stream; ``credit_role`` (one of them) paces the measurements. With
+    ``hold_for_logger_s`` publishing waits while the logger is away (being restarted), at most
+    that long each time.
     """
     # SIGINT/SIGTERM keep their default action: a stopped simulator has nothing left to save.
     with tp.ProcessLifecycle(run_id, transport_cfg, handle_signals=False) as life:
@@ -55,6 +59,20 @@ def publish_run(
             topics.SIM_TRUTH: life.publisher(topics.SIM_TRUTH),
             topics.SIM_FAULTS: life.publisher(topics.SIM_FAULTS),
         }
+        if hold_for_logger_s is not None:
+            life.hold_while_away(topics.SIM_TRUTH, hold_for_logger_s)  # only the logger takes the truth
+        # a restarted FSW is sent again what came after its checkpoint (sim/resend.py)
+        measurements = ResendingPublisher(pubs[topics.SIM_MEASUREMENTS])
+
+        def say_resent(rewind: Rewind) -> None:
+            # on the record: when and from where the restarted FSW was sent the stream again
+            first = rewind.resume_from
+            t = measurements.sent[first].t_s if first < len(measurements.sent) else run.t_start
+            life.put(topics.SIM_STATUS, _status(
+                run, run_id, "running", {RESEND_FROM: first, RESENT: max(0, rewind.sent - first)}, t,
+                "the FSW restarted: measurements sent again from its checkpoint"))
+
+        measurements.on_rewind = say_resent
         life.put(topics.SIM_STATUS, _status(run, run_id, "start", {"measurements": len(run.measurements)}, run.t_start))
         wall0 = time.monotonic()
         n = max(len(run.measurements), 1)
@@ -66,15 +84,30 @@ def publish_run(
                 delay = due - time.monotonic()
                 if delay > 0:
                     time.sleep(delay)
-            pubs[topic].put(msg)
-            if topic == topics.SIM_MEASUREMENTS:
-                sent += 1
-                if progress is not None and time.monotonic() >= next_progress:
-                    progress(sent / n)
-                    next_progress = time.monotonic() + 1.0
+            if not isinstance(msg, Measurement):
+                pubs[topic].put(msg)
+                continue
+            measurements.put(msg)
+            sent += 1
+            if progress is not None and time.monotonic() >= next_progress:
+                progress(sent / n)
+                next_progress = time.monotonic() + 1.0
         counts = tp.end_of_run_counts(pubs.values(), measurements=pubs[topics.SIM_MEASUREMENTS].count)
-        life.end_of_stream(topics.SIM_STATUS, _status(run, run_id, "end-of-run", counts, run.t_end), consumers,
-                           timeout_s=max(wait_s, 30.0))
+        end = _status(run, run_id, "end-of-run", counts, run.t_end)
+        life.announce_end(topics.SIM_STATUS, end)
+
+        def on_reply(role: str, reply: RunStatus) -> None:
+            for window in credit:
+                if role == window.role:
+                    window.observe(reply)
+
+        while True:
+            try:
+                life.confirm_end(end, consumers, timeout_s=max(wait_s, 30.0), on_reply=on_reply)
+                break
+            except tp.ConsumerRestarted as restart:  # the FSW restarted after the last measurement went out
+                measurements.rewind(restart)
+        counts = dict(counts, resent=measurements.resent, consumer_restarts=len(measurements.rewinds))
         if progress is not None:
             progress(1.0)
         return counts

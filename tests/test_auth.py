@@ -146,6 +146,8 @@ def test_the_access_control_list_denies_by_default_and_names_every_role():
     policy = {p["rules"][0]: set(p["subjects"]) for p in acl["policies"]}
     assert policy["command"] == {"operator"} and rules["command"]["key_exprs"] == ["navbank/*/fsw/cmd"]
     assert policy["sim-put"] == {"sim"} and policy["fsw-put"] == {"fsw"}
+    assert policy["fsw-serve"] == {"fsw"} and rules["fsw-serve"]["messages"] == ["declare_queryable", "reply"]
+    assert policy["ground-serve"] == {"ground"} and policy["subscribe"] == set(ROLES)
     assert all(r["flows"] == ["ingress"] for i, r in rules.items() if i != "egress")
 
 

@@ -244,3 +244,27 @@ def test_processes_with_credentials_announce_and_join_only_tls_endpoints(creds, 
             f.write_text(json.dumps({**json.loads(f.read_text()), "pid": os.getppid()}))
             with rendezvous.joined(secure, "mixed", "sim", announce=False) as t:
                 assert t.connect == (s.listen[0],)  # the TLS peer, and only it
+
+
+def test_only_the_fsw_may_answer_under_its_keys(creds):
+    """A peer of the run in another role cannot serve the FSW's progress (or command) queries in
+    its place: its queryable and replies are dropped; the FSW's own certificate is answered."""
+    run_dir, _ = creds
+    port = T.free_tcp_ports(1)[0]
+    ep = f"tls/127.0.0.1:{port}"
+    key = topics.key(RUN, "fsw/progress")
+    answers = {}
+    with T.open_session(T.TransportConfig(listen=(ep,), credentials=load_credentials(run_dir, "sim"))) as asker:
+        querier = asker.declare_querier(key, timeout=1.0)
+        for role in ("ground", "operator", "fsw"):
+            with T.open_session(_cfg(run_dir, role, ep)) as s:
+                q = s.declare_queryable(key, lambda query: query.reply(query.key_expr, b"complete"))
+                deadline = time.monotonic() + 2.0
+                while not querier.matching_status.matching and time.monotonic() < deadline:
+                    time.sleep(0.01)
+                answers[role] = (querier.matching_status.matching,
+                                 [r.ok.payload.to_bytes() for r in querier.get() if r.ok is not None])
+                q.undeclare()
+                time.sleep(0.1)
+        querier.undeclare()
+    assert answers == {"ground": (False, []), "operator": (False, []), "fsw": (True, [b"complete"])}

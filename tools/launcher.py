@@ -128,8 +128,72 @@ def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[st
         return [*base, "ground", "log", "--run-id", run_id, "--out", str(out_dir / "run.mcap"), "--no-validate",
                 "--attach", str(cfg_path), *net]
     if role == "fsw":
-        return [*base, "fsw", "--scenario", str(cfg_path), "--run-id", run_id, *net]
-    return [*base, "sim", "--scenario", str(cfg_path), "--run-id", run_id, *net]
+        return [*base, "fsw", "--scenario", str(cfg_path), "--run-id", run_id, "--checkpoint", str(out_dir / CHECKPOINT),
+                "--hold-for-logger", f"{HOLD_FOR_LOGGER_S:g}", *net]
+    return [*base, "sim", "--scenario", str(cfg_path), "--run-id", run_id, "--hold-for-logger", f"{HOLD_FOR_LOGGER_S:g}",
+            *net]
+
+
+#: The FSW's checkpoint file in the run directory (``fsw.checkpoint`` sets the cadence).
+CHECKPOINT = "fsw.ckpt"
+#: How long the producers wait for a restarted logger each time it is away (then they go on).
+HOLD_FOR_LOGGER_S = 60.0
+#: Restarts of a dying FSW (or logger) before the run is failed.
+DEFAULT_MAX_RESTARTS = 3
+
+
+@dataclass(frozen=True)
+class Restart:
+    """One restart of a supervised process, as the launcher saw it."""
+
+    process: str
+    exit_code: int  # of the process that died (negative: killed by that signal)
+    at_unix_s: float
+    at_wall_s: float  # seconds since the launcher started the run
+    checkpoint_measurements: int | None  # measurements the checkpoint had taken (it goes on after them)
+    checkpoint_t_s: float | None  # mission time (TDB s past J2000) of the checkpoint's newest measurement
+
+
+#: What is restarted when it dies: the FSW from its checkpoint, the logger on a new segment.
+RESTARTABLE = ("fsw", "ground")
+
+
+def _died(child: Child) -> bool:
+    """The process died (a signal, a crash) rather than failing for a reason it stated in its
+    one-line error (a full disk, a refused checkpoint): only the former is worth a restart."""
+    if child.proc.returncode is not None and child.proc.returncode < 0:
+        return True
+    return not last_words(child.tail).startswith("navbank ")
+
+
+def segment_path(out_dir: Path, n: int) -> Path:
+    """Segment ``n`` of the recording of a run whose logger was restarted (``run.mcap`` is
+    renamed segment 0 when its logger dies); they are merged into ``run.mcap`` at the end."""
+    return out_dir / f"run.seg{n}.mcap"
+
+
+def _restart_arguments(role: str, out_dir: Path, n: int) -> tuple[str, ...]:
+    """The options that make the ``n``-th restarted process go on where the dead one stopped."""
+    if role == "fsw":
+        return ("--resume", str(out_dir / CHECKPOINT))
+    if n == 1 and (out_dir / "run.mcap").exists():
+        os.replace(out_dir / "run.mcap", segment_path(out_dir, 0))
+    earlier = [a for i in range(n) if segment_path(out_dir, i).exists() for a in ("--after", str(segment_path(out_dir, i)))]
+    return ("--out", str(segment_path(out_dir, n)), *earlier)  # the last --out is the one taken
+
+
+def _restart_record(child: Child, ckpt: Path, wall_s: float) -> Restart:
+    from fsw.core.checkpoint import CheckpointError, read_header
+
+    if child.role != "fsw":
+        return Restart(child.role, int(child.proc.returncode), time.time(), wall_s, None, None)
+    try:
+        header = read_header(ckpt)
+        taken: int | None = header.measurements_taken
+        t_s: float | None = header.t_s
+    except CheckpointError:
+        taken = t_s = None  # the new process refuses it with one line, and the run fails with it
+    return Restart(child.role, int(child.proc.returncode), time.time(), wall_s, taken, t_s)
 
 
 #: How long a producer (simulator, FSW) may take to stop before it is killed; the logger, stopped
@@ -153,11 +217,20 @@ def _stop(children: list[Child]) -> None:
 
 
 def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float = 3600.0,
-           echo: Callable[[str], None] | None = None, authenticated: bool = True) -> dict[str, int]:
+           echo: Callable[[str], None] | None = None, max_restarts: int = DEFAULT_MAX_RESTARTS,
+           restarts: list[Restart] | None = None, authenticated: bool = True) -> dict[str, int]:
     """Run the three processes for ``cfg`` (already resolved: seed and initial state fixed).
 
-    Returns the exit code per role; raises :class:`RunFailed` if any failed or time ran out."""
+    An FSW that dies is restarted from its last checkpoint, a logger that dies on a new segment
+    (:func:`segment_path`), each at most ``max_restarts`` times; each restart is appended to
+    ``restarts`` (also when the run then fails). Returns the exit code
+    per role; raises :class:`RunFailed` if a process failed for good or time ran out. With
+    ``authenticated`` the run's credentials are made first and removed at the end (module doc)."""
+    restarts = [] if restarts is None else restarts
     out_dir.mkdir(parents=True, exist_ok=True)
+    # a directory used before must not hand this run another run's checkpoint or segments
+    for stale in [out_dir / CHECKPOINT, *out_dir.glob("run.seg*.mcap")]:
+        stale.unlink(missing_ok=True)
     cfg_path = out_dir / "config.yaml"
     cfg_path.write_text(to_yaml(cfg, complete=True), encoding="utf-8")
     private = credentials = None
@@ -170,14 +243,14 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
                 shutil.rmtree(private, ignore_errors=True)
             raise RunFailed(f"cannot make the run's credentials: {_errno_text(exc)}") from None
     try:
-        return _launch(cfg_path, run_id, out_dir, timeout_s, echo, credentials)
+        return _launch(cfg_path, run_id, out_dir, timeout_s, echo, max_restarts, restarts, credentials)
     finally:
         if private is not None:
             shutil.rmtree(private, ignore_errors=True)  # our own temporary directory
 
 
 def _launch(cfg_path: Path, run_id: str, out_dir: Path, timeout_s: float, echo: Callable[[str], None] | None,
-            credentials: Path | None) -> dict[str, int]:
+            max_restarts: int, restarts: list[Restart], credentials: Path | None) -> dict[str, int]:
     ports = free_tcp_ports(len(ROLES))
     proto = "tcp" if credentials is None else "tls"
     eps = {r: f"{proto}/127.0.0.1:{p}" for r, p in zip(ROLES, ports)}
@@ -185,20 +258,40 @@ def _launch(cfg_path: Path, run_id: str, out_dir: Path, timeout_s: float, echo: 
     children: list[Child] = []
     interrupted = threading.Event()
     old = {s: signal.signal(s, lambda *_: interrupted.set()) for s in (signal.SIGINT, signal.SIGTERM)}
+    wall0 = time.monotonic()
+
+    def start(role: str, extra: tuple[str, ...] = (), log_name: str | None = None) -> Child:
+        proc = subprocess.Popen([*_command(role, cfg_path, run_id, out_dir, eps, credentials), *extra], stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True, env=env,
+                                start_new_session=True)
+        child = Child(role, proc, out_dir / (log_name or f"{role}.log"))
+        child.thread = threading.Thread(target=_pump, args=(child, proc.stdout, echo if role == "fsw" else None),
+                                        daemon=True)
+        child.thread.start()
+        return child
+
     try:
         for role in ROLES:
-            proc = subprocess.Popen(_command(role, cfg_path, run_id, out_dir, eps, credentials), stdout=subprocess.PIPE,
-                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True, env=env,
-                                    start_new_session=True)
-            child = Child(role, proc, out_dir / f"{role}.log")
-            child.thread = threading.Thread(target=_pump, args=(child, proc.stdout, echo if role == "fsw" else None),
-                                            daemon=True)
-            child.thread.start()
-            children.append(child)
+            children.append(start(role))
         deadline = time.monotonic() + timeout_s
         while True:
             codes = {c.role: c.proc.poll() for c in children}
             failed = [c for c in children if codes[c.role] not in (None, 0)]
+            for c in failed:
+                if c.thread:
+                    c.thread.join(timeout=2)  # its last words are read before they are judged
+            restartable = [c for c in failed if c.role in RESTARTABLE and _died(c) and not interrupted.is_set()
+                           and sum(r.process == c.role for r in restarts) < max_restarts
+                           and (c.role != "fsw" or (out_dir / CHECKPOINT).is_file())]
+            if restartable:
+                c = restartable[0]
+                restarts.append(_restart_record(c, out_dir / CHECKPOINT, time.monotonic() - wall0))
+                n = sum(r.process == c.role for r in restarts)
+                if echo is not None:
+                    echo(f"navbank run: the {c.role} process exited with code {c.proc.returncode} "
+                         f"({last_words(c.tail)}); restarting it (restart {n} of at most {max_restarts})")
+                children[children.index(c)] = start(c.role, _restart_arguments(c.role, out_dir, n), f"{c.role}.restart{n}.log")
+                continue
             if failed:
                 c = failed[0]
                 _stop(children)
@@ -207,7 +300,9 @@ def _launch(cfg_path: Path, run_id: str, out_dir: Path, timeout_s: float, echo: 
                         ch.thread.join(timeout=2)
                 why = last_words(c.tail)
                 log = f"{c.log_path} (not written: {c.log_error})" if c.log_error else str(c.log_path)
-                raise RunFailed(f"the {c.role} process exited with code {codes[c.role]} ({why}); "
+                n = sum(r.process == c.role for r in restarts)
+                after = f" after {n} restart(s)" if n else ""
+                raise RunFailed(f"the {c.role} process exited with code {codes[c.role]} ({why}){after}; "
                                 f"the others were stopped. Log: {log}")
             if all(code == 0 for code in codes.values()):
                 break

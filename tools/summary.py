@@ -60,6 +60,19 @@ def describe(summary: RunSummary) -> str:
             lines.append(f"  day {c.day:6.2f}  {c.command} {what}".rstrip())
         if len(changed) > 10:
             lines.append(f"  ... and {len(changed) - 10} more (summary.json lists them all)")
+    if s.measurements.unprocessed is not None:
+        lines.append(f"stopped with {s.measurements.unprocessed} measurements delivered to the FSW but not processed")
+    if s.restarts is not None and s.restarts.events:
+        # a restarted run says so, and what the restarts cost the recording
+        for r in s.restarts.events:
+            where = "" if r.checkpoint_day is None else \
+                f", went on from its checkpoint on day {r.checkpoint_day:.2f} ({r.checkpoint_measurements} measurements)"
+            if r.resent is not None:
+                where += f"; {r.resent} measurements sent again"
+            lines.append(f"restart: the {r.process} process ended with code {r.exit_code} {r.at_wall_s:.1f} s into the run{where}")
+        twice = sum(s.restarts.duplicates_dropped.values())
+        lost = ", ".join(f"{t} {n}" for t, n in s.restarts.gaps.items()) or "nothing"
+        lines.append(f"  recorded twice and dropped: {twice}; never recorded: {lost}")
     if s.refused and any(s.refused.values()):
         lines.append(f"REFUSED (failed authentication, changed nothing): {s.refused.get('telecommands', 0)} telecommands, "
                      f"{s.refused.get('statuses', 0)} statuses or drain queries (see /fsw/commands and /_refused/)")

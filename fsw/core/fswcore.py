@@ -86,6 +86,19 @@ class FswCore:
         self.frames_reported = 0
         self.max_utilisation = 0.0
 
+    # -- checkpoints (fsw.core.checkpoint) ------------------------------------------------------
+    def __getstate__(self) -> dict[str, object]:
+        """Everything but what belongs to the process around the core: where it emits and the
+        driver's counters (a resumed process attaches its own)."""
+        state = dict(self.__dict__)
+        state["_sink"] = None
+        state["extra_counters"] = None
+        return state
+
+    def attach(self, emit: Emit) -> None:
+        """Emit through ``emit`` from now on (a core restored from a checkpoint)."""
+        self._sink = emit
+
     @property
     def detector(self) -> AnomalyDetector | None:
         return None if self.reporter is None else self.reporter.detector

@@ -27,7 +27,7 @@ import math
 import threading
 import time
 from collections import deque
-from typing import Callable
+from typing import Any, Callable
 
 from fsw.executive.config import BudgetConfig
 from fsw.executive.meter import CpuMeter, WorkUnitMeter, measured_interval
@@ -94,6 +94,18 @@ class FrameExecutive:
         self._cpu_measured = 0.0
 
     # ------------------------------------------------------------------ submission
+
+    # A checkpoint (fsw.core.checkpoint) pickles the executive with its backlog; a lock is the one
+    # thing that cannot travel, and a fresh one is what a resumed process needs anyway.
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        del state["_lock"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
+
     def submit(self, job: Job) -> None:
         """Queue ``job``. Jobs must be submitted in non-decreasing time-tag order.
 

@@ -18,7 +18,8 @@ The measured Zenoh pitfalls (NOTES-zenoh-mcap.md) are handled once, each in the 
 
 from fsw.transport.commands import CommandServer, declare_command_server, send_command, send_command_payload
 from fsw.transport.credentials import CredentialsError, RunCredentials, load_credentials
-from fsw.transport.flow import COMPLETE, PROGRESS, ROLES, CreditWindow, drain, query_progress, wait_for_consumers
+from fsw.transport.flow import (COMPLETE, INCARNATION, PROGRESS, RESUMED_FROM, ROLES, ConsumerRestarted, CreditWindow,
+                                drain, query_progress, wait_for_consumers)
 from fsw.transport.lifecycle import REPLY_LINGER_S, ProcessLifecycle, StopFlag
 from fsw.transport.pubsub import Publisher, Received, Subscriber, TopicPublisher, end_of_run_counts
 from fsw.transport.session import TransportConfig, TransportError, free_tcp_ports, mesh_configs, open_session, zenoh_config
@@ -26,10 +27,13 @@ from fsw.transport.wire import sequence_attachment
 
 __all__ = [
     "COMPLETE",
+    "INCARNATION",
     "PROGRESS",
+    "RESUMED_FROM",
     "REPLY_LINGER_S",
     "ROLES",
     "CommandServer",
+    "ConsumerRestarted",
     "CreditWindow",
     "CredentialsError",
     "RunCredentials",

@@ -108,11 +108,13 @@ def tls_settings(creds: RunCredentials) -> dict[str, Any]:
 _ALL_MESSAGES = ("put", "delete", "declare_subscriber", "query", "reply", "declare_queryable", "liveliness_token",
                  "declare_liveliness_subscriber", "liveliness_query")
 
-# Who may do what on a run's keys (``navbank/<run>/...``). Every peer of the run may declare
-# subscribers and queryables (that is how data finds its way to it) and reply to queries.
+# Who may do what on a run's keys (``navbank/<run>/...``). Every peer of the run may subscribe
+# (that is how data finds its way to it); a role serves queries and replies only under its own
+# keys, so no one else can answer the FSW's telecommand or progress queries in its place.
 _RULES: tuple[tuple[str, tuple[str, ...], tuple[str, ...], tuple[Role, ...]], ...] = (
-    ("declare", ("declare_subscriber", "declare_queryable"), ("navbank/**",), ROLES),
-    ("reply", ("reply",), ("navbank/**",), ("sim", "fsw", "ground")),
+    ("subscribe", ("declare_subscriber",), ("navbank/**",), ROLES),
+    ("fsw-serve", ("declare_queryable", "reply"), ("navbank/*/fsw/**",), ("fsw",)),
+    ("ground-serve", ("declare_queryable", "reply"), ("navbank/*/ground/**",), ("ground",)),
     ("sim-put", ("put",), ("navbank/*/sim/**",), ("sim",)),
     ("fsw-put", ("put",), ("navbank/*/fsw/**",), ("fsw",)),
     # credit, readiness and the end-of-stream drain: the producers ask their consumers

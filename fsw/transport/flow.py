@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import time
 import typing
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import zenoh
@@ -40,6 +40,21 @@ from fsw.interface import codec, topics
 from fsw.interface.messages import RunStatus
 from fsw.transport import wire
 from fsw.transport.session import TransportError
+
+#: Progress counters of a restarted consumer: a number that differs for every start of the
+#: process, and the count of the topic it takes again from (its checkpoint's position).
+INCARNATION = "incarnation"
+RESUMED_FROM = "resumed_from"
+
+
+class ConsumerRestarted(Exception):
+    """The credit consumer was restarted from a checkpoint: the producer must send its topic
+    again from message number ``resume_from`` (with the original sequence numbers)."""
+
+    def __init__(self, role: str, resume_from: int):
+        super().__init__(f"{role} restarted; resend from message {resume_from}")
+        self.role, self.resume_from = role, resume_from
+
 
 #: Roles that may serve a progress queryable (the ``source`` values of RunStatus).
 ROLES: tuple[str, ...] = typing.get_args(typing.get_type_hints(RunStatus)["source"])
@@ -110,6 +125,23 @@ class CreditWindow:
         self.taken = 0  # consumer's last reported count on topic
         self.waits = 0  # number of times the window was exhausted
         self.queries = 0
+        self.incarnation: int | None = None  # of the consumer process last heard from
+        self.restarts = 0
+
+    def observe(self, reply: RunStatus) -> None:
+        """Take note of a progress reply of the consumer. A consumer that says it was resumed
+        (``resumed_from``) under an incarnation not seen before raises
+        :class:`ConsumerRestarted`: its taken-count went back to its checkpoint's, and the
+        window restarts from there (nothing is counted twice, nothing waits on the old count)."""
+        incarnation = reply.counts.get(INCARNATION)
+        if incarnation is None or incarnation == self.incarnation:
+            return
+        self.incarnation = incarnation
+        resumed = reply.counts.get(RESUMED_FROM)
+        if resumed is not None:
+            self.restarts += 1
+            self.taken = reply.counts.get(self.topic, resumed)
+            raise ConsumerRestarted(self.role, resumed)
 
     def wait(self, published: int) -> None:
         """Return when message number ``published`` (0-based) may be sent."""
@@ -122,6 +154,7 @@ class CreditWindow:
             self.queries += 1
             reply = query_progress(self.session, self.run_id, self.role, timeout_s=1.0)
             if reply is not None:
+                self.observe(reply)
                 taken = reply.counts.get(self.topic, 0)
                 if taken > self.taken:
                     self.taken = taken
@@ -139,12 +172,15 @@ class CreditWindow:
 
 
 def drain(
-    session: zenoh.Session, run_id: str, status: RunStatus, consumers: Iterable[str], timeout_s: float = 30.0
+    session: zenoh.Session, run_id: str, status: RunStatus, consumers: Iterable[str], timeout_s: float = 30.0,
+    *, on_reply: Callable[[str, RunStatus], None] | None = None,
 ) -> dict[str, bool]:
     """End-of-stream handshake: wait until every consumer confirms it has taken what ``status`` announces.
 
     ``status`` is the end-of-run RunStatus just published (counts per topic). Returns, per
     consumer, whether it confirmed within ``timeout_s``. Close the session only afterwards.
+    ``on_reply(consumer, reply)`` sees every reply first (a producer that resends to a
+    restarted consumer raises :class:`ConsumerRestarted` from it).
     """
     pending = list(consumers)
     done = {c: False for c in pending}
@@ -153,6 +189,8 @@ def drain(
     while pending:
         for c in list(pending):
             reply = query_progress(session, run_id, c, status, timeout_s=1.0)
+            if reply is not None and on_reply is not None:
+                on_reply(c, reply)
             if reply is not None and reply.counts.get(COMPLETE) == 1:
                 done[c] = True
                 pending.remove(c)

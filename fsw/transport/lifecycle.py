@@ -34,7 +34,7 @@ from fsw.interface.auth import MessageAuthenticator
 from fsw.interface.messages import RunStatus, Telecommand, TelecommandReply
 from fsw.transport import flow
 from fsw.transport.commands import CommandServer
-from fsw.transport.pubsub import Publisher, Subscriber, TopicPublisher
+from fsw.transport.pubsub import ConsumerHold, Publisher, Subscriber, TopicPublisher
 from fsw.transport.session import TransportConfig, TransportError, open_session
 
 #: Time for a last query reply to leave before the session closes.
@@ -76,6 +76,7 @@ class ProcessLifecycle:
         self._subs: list[Subscriber] = []
         self._servers: list[CommandServer] = []
         self._stack = ExitStack()
+        self._hold: ConsumerHold | None = None
 
     # -- entering and leaving ------------------------------------------------------------
     def __enter__(self) -> "ProcessLifecycle":
@@ -130,9 +131,27 @@ class ProcessLifecycle:
         if pub is None:
             pub = self._pubs[topic] = Publisher(self.session, self.run_id, topic, credit=credit,
                                                 authenticator=self.authenticator)
+            pub.hold = self._hold
         if not isinstance(pub, Publisher):
             raise TypeError(f"{topic} was declared with a publisher of raw payloads, not ICD messages")
         return pub
+
+    def hold_while_away(self, sentinel_topic: str, timeout_s: float) -> ConsumerHold:
+        """Hold every put of this process while the consumer of ``sentinel_topic`` (one only the
+        logger takes) is away, at most ``timeout_s`` per absence (:class:`ConsumerHold`): what is
+        published while a logger is restarted waits for the new one instead of being lost."""
+        self._hold = ConsumerHold(self.publisher(sentinel_topic), timeout_s)
+        for pub in self._pubs.values():
+            if isinstance(pub, Publisher):
+                pub.hold = self._hold
+        return self._hold
+
+    def restore_publishers(self, counts: dict[str, int]) -> None:
+        """Declare the publishers of ``counts``' topics with their sequence counters where a
+        checkpoint left them: what a restarted process publishes again carries the numbers it
+        carried the first time (so the logger recognises it as a duplicate)."""
+        for topic, n in counts.items():
+            self.publisher(topic).count = int(n)
 
     def raw_publisher(self, topic: str, make: Callable[[str], TopicPublisher]) -> TopicPublisher:
         """The publisher ``make(topic)`` builds (e.g. of recorded payloads on a topic outside the
@@ -190,16 +209,17 @@ class ProcessLifecycle:
         self.publisher(topic).put(status)
 
     def confirm_end(
-        self, status: RunStatus, consumers: Iterable[str], timeout_s: float = 30.0, *, require_all: bool = True
+        self, status: RunStatus, consumers: Iterable[str], timeout_s: float = 30.0, *, require_all: bool = True,
+        on_reply: Callable[[str, RunStatus], None] | None = None,
     ) -> dict[str, bool]:
         """Drain into ``consumers`` until each confirms it has what ``status`` announces.
 
         Returns whether each consumer confirmed; with ``require_all`` a consumer that did not
-        raises :class:`TransportError` naming it.
+        raises :class:`TransportError` naming it. ``on_reply`` as in :func:`fsw.transport.flow.drain`.
         """
         if self.authenticator is not None:
             status = self.authenticator.sign(status)
-        done = flow.drain(self.session, self.run_id, status, consumers, timeout_s=timeout_s)
+        done = flow.drain(self.session, self.run_id, status, consumers, timeout_s=timeout_s, on_reply=on_reply)
         missing = [c for c, ok in done.items() if not ok]
         if require_all and missing:
             raise TransportError(f"no end-of-stream confirmation from {', '.join(missing)}")

@@ -44,6 +44,39 @@ class TopicPublisher(Protocol):
     def close(self) -> None: ...
 
 
+class ConsumerHold:
+    """Holds a producer's puts while a consumer that was there has gone (a logger being restarted).
+
+    ``sentinel`` is a publisher only that consumer subscribes to (the simulator's truth, the
+    FSW's status): once it has matched a subscriber, a put made while it matches none waits until
+    one is back, at most ``timeout_s`` per absence (then it stops holding: a consumer that does
+    not come back must not stop the run). Checking costs a couple of microseconds per put."""
+
+    def __init__(self, sentinel: "Publisher", timeout_s: float = 60.0, poll_s: float = 0.01):
+        self.sentinel, self.timeout_s, self.poll_s = sentinel, timeout_s, poll_s
+        self.seen = False
+        self.holds = 0  # absences waited out (or given up on)
+        self.held_s = 0.0
+        self.gave_up = False
+
+    def wait(self) -> None:
+        if self.gave_up:
+            return
+        if self.sentinel.matched:
+            self.seen = True
+            return
+        if not self.seen:
+            return  # nobody was there yet: nothing to wait for
+        self.holds += 1
+        t0 = time.monotonic()
+        while not self.sentinel.matched:
+            if time.monotonic() - t0 > self.timeout_s:
+                self.gave_up = True
+                break
+            time.sleep(self.poll_s)
+        self.held_s += time.monotonic() - t0
+
+
 class Publisher:
     """One ICD topic of one run: RELIABLE, congestion control BLOCK, JSON with schema name.
 
@@ -80,6 +113,7 @@ class Publisher:
         self.cls = cls
         self.count = 0
         self.credit = tuple(credit)
+        self.hold: ConsumerHold | None = None
         self._pub = session.declare_publisher(
             self.key,
             encoding=wire.encoding(cls),
@@ -98,6 +132,8 @@ class Publisher:
 
     def put_payload(self, payload: bytes) -> None:
         """Publish an already encoded payload (replay of recorded bytes)."""
+        if self.hold is not None:
+            self.hold.wait()
         for window in self.credit:
             window.wait(self.count)
         self._pub.put(payload, attachment=wire.sequence_attachment(self.count))
@@ -106,6 +142,12 @@ class Publisher:
     @property
     def has_subscribers(self) -> bool:
         return bool(self._pub.matching_status)
+
+    @property
+    def matched(self) -> bool:
+        """Some subscriber matches this publisher now."""
+        status: Any = self._pub.matching_status  # a MatchingStatus (the stubs say bool)
+        return bool(status.matching)
 
     def close(self) -> None:
         self._pub.undeclare()
@@ -125,6 +167,29 @@ def end_of_run_counts(publishers: Iterable[TopicPublisher], **extra: int) -> dic
             raise ValueError(f"counter name {k!r} must not contain '/' (reserved for topics)")
         out[k] = int(v)
     return out
+
+
+class SeenSequences:
+    """The sequence numbers seen on one topic, one bit each (a run's topics stay in the millions)."""
+
+    def __init__(self) -> None:
+        self._bits = bytearray()
+
+    def add(self, seq: int) -> bool:
+        """Mark ``seq`` seen; False if it was seen already."""
+        if seq < 0:
+            return True  # not a sequence number of ours: never a duplicate
+        byte, bit = divmod(seq, 8)
+        if byte >= len(self._bits):
+            self._bits.extend(bytes(max(byte + 1 - len(self._bits), len(self._bits))))
+        if self._bits[byte] >> bit & 1:
+            return False
+        self._bits[byte] |= 1 << bit
+        return True
+
+    def __contains__(self, seq: int) -> bool:
+        byte, bit = divmod(seq, 8)
+        return 0 <= byte < len(self._bits) and bool(self._bits[byte] >> bit & 1)
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,6 +232,9 @@ class Subscriber:
         decode: bool = True,
         role: str | None = None,
         capacity: int = 8192,
+        resume: dict[str, int] | None = None,
+        dedupe: bool = False,
+        settle_s: float | None = None,
         authenticator: MessageAuthenticator | None = None,
     ):
         if isinstance(topic_exprs, str):
@@ -191,6 +259,24 @@ class Subscriber:
         self.acknowledged: dict[str, bool] = {}
         self.last_t_s = 0.0
         self._next_seq: dict[str, int] = {}
+        # A restarted consumer takes a topic again from where its checkpoint stood: the count of
+        # what it had taken, and nothing but the next sequence number in order (what the producer
+        # sent before it heard of the restart is discarded; it sends it again).
+        self._in_order = dict(resume or {})
+        for topic, n in self._in_order.items():
+            self.received[topic] = self._next_seq[topic] = int(n)
+        self.discarded: dict[str, int] = {}
+        #: with ``dedupe``, the sequence numbers seen per topic: a sample seen before (a producer
+        #: that resends after a restart) is dropped and counted in ``duplicates``
+        self.seen: dict[str, SeenSequences] | None = {} if dedupe else None
+        self.duplicates: dict[str, int] = {}
+        #: further counters every progress reply carries (e.g. a restarted consumer's incarnation)
+        self.progress_extra: dict[str, int] = {}
+        # A recorder restarted after messages went by unrecorded can never take everything
+        # announced: with ``settle_s`` a topic counts as complete once nothing has arrived for
+        # that long (what is still missing is lost, and the recorder says so).
+        self.settle_s = settle_s
+        self._last_sample = time.monotonic()
         self._subs: list[Any] = []
         self._queryable = None
         self._rr = 0
@@ -261,12 +347,24 @@ class Subscriber:
         schema = wire.schema_of(sample.encoding)
         pub_seq = wire.sequence_of(sample.attachment)
         with self._lock:
+            self._last_sample = time.monotonic()
+            if topic in self._in_order and pub_seq != self._next_seq[topic]:
+                self.discarded[topic] = self.discarded.get(topic, 0) + 1
+                return None
+            if self.seen is not None and pub_seq is not None:
+                seen = self.seen.setdefault(topic, SeenSequences())
+                if not seen.add(pub_seq):
+                    self.duplicates[topic] = self.duplicates.get(topic, 0) + 1
+                    return None
             self.received[topic] = self.received.get(topic, 0) + 1
             if pub_seq is not None:
                 expected = self._next_seq.get(topic)
                 if expected is not None and pub_seq > expected:
                     self.gaps[topic] = self.gaps.get(topic, 0) + (pub_seq - expected)
-                self._next_seq[topic] = pub_seq + 1
+                if self.seen is not None and expected is not None and pub_seq < expected:
+                    self.gaps[topic] = self.gaps.get(topic, 0) - 1  # a gap filled late
+                else:
+                    self._next_seq[topic] = pub_seq + 1
         message: object | None = None
         refused = ""
         try:
@@ -306,6 +404,10 @@ class Subscriber:
             self.last_error = f"{topic}: refused: {why}"
 
     # -- completeness ----------------------------------------------------------------------
+    def subscribed(self, topic: str) -> bool:
+        """Whether ``topic`` is among this subscriber's topics."""
+        return self._subscribed(topic)
+
     def _subscribed(self, topic: str) -> bool:
         try:
             k = zenoh.KeyExpr(topics.key(self.run_id, topic))
@@ -314,13 +416,30 @@ class Subscriber:
         return any(p.includes(k) for p in self._patterns)
 
     def is_complete(self, status: RunStatus) -> bool:
-        """Whether every topic announced in ``status.counts`` that we subscribe to is fully taken."""
+        """Whether every topic announced in ``status.counts`` that we subscribe to is fully taken
+        (or, with ``settle_s``, nothing more has come for that long)."""
         with self._lock:
             received = dict(self.received)
+            settled = self.settle_s is not None and time.monotonic() - self._last_sample >= self.settle_s
         for name, n in status.counts.items():
-            if "/" in name and self._subscribed(name) and received.get(name, 0) < n:
+            if "/" in name and self._subscribed(name) and received.get(name, 0) < n and not settled:
                 return False
         return True
+
+    def next_sequence(self, topic: str) -> int:
+        """One past the highest publisher sequence number taken on ``topic`` (0 before any)."""
+        with self._lock:
+            return self._next_seq.get(topic, 0)
+
+    def preload(self, topic: str, sequences: Iterable[int]) -> None:
+        """Count ``sequences`` of ``topic`` as taken already (recorded by an earlier recorder of
+        the run): with ``dedupe`` they are not taken again."""
+        with self._lock:
+            for seq in sequences:
+                if self.seen is not None and not self.seen.setdefault(topic, SeenSequences()).add(seq):
+                    continue
+                self.received[topic] = self.received.get(topic, 0) + 1
+                self._next_seq[topic] = max(self._next_seq.get(topic, 0), seq + 1)
 
     def finished(self, producers: Iterable[str]) -> bool:
         """Every producer in ``producers`` has published end-of-run and we have all it announced."""
@@ -350,12 +469,16 @@ class Subscriber:
         with query:  # drops the Query on exit so the querier is not left waiting
             try:
                 counts = self.counts()
+                counts.update(self.progress_extra)
                 payload = query.payload
                 if payload is not None and len(payload.to_bytes()) > 0:
                     status = codec.from_json(RunStatus, payload.to_bytes())
                     why = self.authenticator.refusal(status) if self.authenticator is not None else None
                     if why is not None:
                         self._count_refused(f"{self.role}/{PROGRESS}", why)
+                    elif status.state == "end-of-run" and status.source not in self.end_of_run:
+                        # a consumer restarted after the producer's end-of-run went out learns it here
+                        self.end_of_run[status.source] = status
                     done = why is None and self.is_complete(status)
                     counts[COMPLETE] = int(done)
                     if done:

@@ -52,12 +52,16 @@ class FaultBlock(JsonRecord):
 
 @dataclass(frozen=True)
 class MeasurementCounts(JsonRecord):
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"unprocessed"})
+
     published: int = spec(doc="measurements the simulator published")
     processed: int = spec(doc="measurements the FSW processed")
     rejected: int = spec(doc="measurements the FSW rejected")
     lost: int = spec(doc="measurements lost on the way")
     duplicates: int = spec(doc="duplicates the FSW dropped")
     reordered: int = spec(doc="measurements that arrived out of order")
+    unprocessed: int | None = spec(None, doc="a stopped FSW: measurements delivered to it (taken or still in its "
+                                   "input queue) but not processed when it stopped")
 
 
 #: How a ``navbank run`` ended.
@@ -187,13 +191,55 @@ class RunFiles(JsonRecord):
 
 
 @dataclass(frozen=True)
+class RestartEntry(JsonRecord):
+    """One restart of a supervised process during a ``navbank run``."""
+
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"checkpoint_measurements", "checkpoint_t_s", "checkpoint_day",
+                                                           "resent"})
+
+    process: str = spec(doc="the process restarted (fsw)")
+    exit_code: int = spec(doc="how the process ended (negative: killed by that signal number)")
+    at_unix_s: float = spec(doc="wall-clock time the launcher saw it end, Unix seconds", unit="s")
+    at_wall_s: float = spec(doc="seconds into the run", unit="s")
+    checkpoint_measurements: int | None = spec(None, doc="measurements its checkpoint had taken: the restart went on after them")
+    checkpoint_t_s: float | None = spec(None, doc="mission time of the checkpoint's newest measurement, TDB s past J2000", unit="s")
+    checkpoint_day: float | None = spec(None, doc="the same as days since the scenario start", unit="d")
+    resent: int | None = spec(None, doc="measurements the simulator sent again to the restarted FSW (from its status)")
+
+
+@dataclass(frozen=True)
+class SegmentEntry(JsonRecord):
+    """One segment of a recording whose logger was restarted (merged into the run's MCAP file):
+    between one segment's last message and the next one's first, nothing was recorded."""
+
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"first_log_unix_s", "last_log_unix_s"})
+
+    file: str = spec(doc="the segment file")
+    messages: int = spec(doc="messages it holds")
+    complete: bool = spec(doc="its logger finished it (false: the logger died; read up to its last complete chunk)")
+    first_log_unix_s: float | None = spec(None, doc="receive time of its first message, Unix seconds", unit="s")
+    last_log_unix_s: float | None = spec(None, doc="receive time of its last message, Unix seconds", unit="s")
+
+
+@dataclass(frozen=True)
+class RestartsBlock(JsonRecord):
+    """Restarts of a ``navbank run`` and what they cost: what was sent or published twice (the
+    logger recorded it once and dropped the repeat) and what was never recorded."""
+
+    events: tuple[RestartEntry, ...] = spec(doc="each restart, in order")
+    duplicates_dropped: dict[str, int] = spec(doc="per topic: messages received again after a restart, recorded once")
+    gaps: dict[str, int] = spec(doc="per topic: publisher sequence numbers never recorded (lost)")
+    segments: tuple[SegmentEntry, ...] = spec(default_factory=tuple, doc="the recording's segments, if the logger was restarted")
+
+
+@dataclass(frozen=True)
 class RunSummary(JsonRecord):
     """Every number ``navbank run`` prints and writes to ``summary.json``."""
 
     # monitors: campaign runs with monitors; run_id and files: summaries of ``navbank run``;
     # commands: runs that were commanded; status, reason: summaries of ``navbank run``
     _omit_when_none: ClassVar[frozenset[str]] = frozenset({"monitors", "run_id", "files", "commands", "status", "reason",
-                                                           "refused"})
+                                                           "restarts", "refused"})
 
     scenario: str = spec(doc="scenario name")
     seed: int = spec(doc="random seed of the run")
@@ -223,3 +269,4 @@ class RunSummary(JsonRecord):
     status: RunEnding | None = spec(
         None, doc="how the run ended: complete; interrupted (SIGINT/SIGTERM); failed (a process failed, time ran out)")
     reason: str | None = spec(None, doc="why it did not complete, in one line")
+    restarts: RestartsBlock | None = spec(None, doc="supervised restarts of a ``navbank run`` (written when restarts were enabled)")

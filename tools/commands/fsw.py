@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 
 import fsw.transport as tp
 from fsw.app import run_fsw, stderr_progress
+from fsw.core.checkpoint import CheckpointError
 from tools.commands.arg_types import run_id_arg
+from tools.commands.errors import UsageError
+from tools.commands.outputs import check_output_file
 from tools.commands.common import add_scenario_arguments, scenario_from_args
 from tools.commands.transport_args import add_transport_arguments
 from tools.rendezvous import joined
@@ -28,16 +32,35 @@ def add_arguments(p) -> None:
     p.add_argument("--consumers", default="ground", metavar="LIST", help="roles that must confirm the end of the telemetry (default ground)")
     p.add_argument("--idle-timeout", type=float, default=None, metavar="S", help="give up after S seconds without data")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+    g = p.add_argument_group("checkpoints (a supervised restart goes on from the last one)")
+    g.add_argument("--checkpoint", default=None, metavar="FILE", help="save the FSW's state to FILE at the checkpoint cadence")
+    g.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
+                   help="checkpoint every N measurements (default: the scenario's fsw.checkpoint.every_measurements)")
+    g.add_argument("--hold-for-logger", type=float, default=None, metavar="S",
+                   help="once the logger was up, hold telemetry while it is away (restarting), at most S seconds each time")
+    g.add_argument("--resume", default=None, metavar="FILE", help="go on from the checkpoint FILE (the producer resends what came after it)")
     add_transport_arguments(p)
 
 
 def run(args) -> int:
     cfg, _ = resolve(scenario_from_args(args), args.seed)
     consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
+    fsw_cfg = cfg.fsw
+    if args.checkpoint_every is not None:
+        if args.checkpoint_every < 0:
+            raise UsageError("--checkpoint-every must be >= 0")
+        fsw_cfg = dataclasses.replace(fsw_cfg, checkpoint=dataclasses.replace(
+            fsw_cfg.checkpoint, every_measurements=args.checkpoint_every))
+    if args.checkpoint is not None:
+        check_output_file(args.checkpoint, "--checkpoint")
     try:
         with joined(args, args.run_id, "fsw") as transport:
-            counts = run_fsw(cfg.fsw, args.run_id, transport, consumers=consumers,
-                             progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout)
+            counts = run_fsw(fsw_cfg, args.run_id, transport, consumers=consumers,
+                             progress=None if args.quiet else stderr_progress, idle_timeout_s=args.idle_timeout,
+                             checkpoint_path=args.checkpoint, resume=args.resume, hold_for_logger_s=args.hold_for_logger)
+    except CheckpointError as exc:
+        print(f"navbank fsw: {exc}", file=sys.stderr)
+        return 2
     except tp.TransportError as exc:
         print(f"navbank fsw: {exc}", file=sys.stderr)
         return 1

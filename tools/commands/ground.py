@@ -53,6 +53,9 @@ def _add_log_arguments(parser) -> None:
     parser.add_argument("--no-validate", action="store_true", help="record without strict ICD decoding (faster)")
     parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
                         help="close the open chunk at least every S seconds (data lost on SIGKILL, default 0.5)")
+    parser.add_argument("--after", action="append", default=[], metavar="SEGMENT",
+                        help="an earlier segment of the same run (a logger that died): what it holds is not recorded again "
+                             "(repeatable, in order)")
     add_transport_arguments(parser)
 
 
@@ -72,6 +75,7 @@ def _log(args) -> int:
                 validate=not args.no_validate,
                 attachments=args.attach,
                 flush_interval_s=args.flush_interval,
+                after=args.after,
             )
     except OSError as exc:
         # the only file the logger writes is --out; an error from write() or flush() carries no

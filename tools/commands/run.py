@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
+import json
+import os
 from typing import TYPE_CHECKING, Any, Callable
 import sys
 import time
@@ -12,7 +14,7 @@ from tools.commands.errors import UsageError
 from tools.commands.arg_types import run_id_arg
 from tools.commands.common import add_scenario_arguments, new_run_id, scenario_from_args
 from tools.commands.outputs import check_output_dir, write_error_line
-from tools.launcher import RunFailed, launch, write_summary
+from tools.launcher import DEFAULT_MAX_RESTARTS, Restart, RunFailed, launch, write_summary
 from tools.progress import advance_to, fsw_progress, progress_bar
 from tools.scenario import ScenarioConfig, resolve
 
@@ -29,6 +31,11 @@ the diagnosed class against the injected fault, position errors against truth, a
 Writes DIR/run.mcap (open it in Foxglove), DIR/summary.json, DIR/config.yaml (the exact
 configuration, re-runnable with --scenario DIR/config.yaml) and a log per process.
 
+A process that dies is restarted (at most --max-restarts times each): the FSW from its last
+checkpoint (DIR/fsw.ckpt; the simulator sends again what came after it), the logger on a new
+segment (DIR/run.seg<n>.mcap, merged into DIR/run.mcap at the end). summary.json lists the
+restarts and what, if anything, was never recorded.
+
 Default: the insight-approach scenario with a medium optical bias from day 20 of 45."""
 
 
@@ -42,6 +49,11 @@ def add_arguments(p) -> None:
                    help="budget per frame as a fraction of the scenario's (e.g. 0.25 for a quarter)")
     g.add_argument("--cpu-scale", type=float, default=None, metavar="X", help="charge X times the measured CPU (a slower flight processor)")
     p.add_argument("--timeout", type=float, default=3600.0, metavar="S", help="stop everything after S seconds (default 3600)")
+    p.add_argument("--max-restarts", type=int, default=DEFAULT_MAX_RESTARTS, metavar="N",
+                   help=f"restart a dying FSW (from its last checkpoint) or logger (on a new segment) at most N times "
+                        f"each (default {DEFAULT_MAX_RESTARTS}; 0: never)")
+    p.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
+                   help="FSW checkpoint every N measurements (default: the scenario's fsw.checkpoint.every_measurements)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--plain-tcp", action="store_true",
                    help="plain TCP links without authentication (default: mutual TLS, access control and signed "
@@ -67,18 +79,68 @@ def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, c
     return dataclasses.replace(cfg, fsw=dataclasses.replace(cfg.fsw, budget=dataclasses.replace(b, **changes)))
 
 
+def _merge_segments(out: Path) -> list[Any]:
+    """A restarted logger left the recording in segments: merge them into ``run.mcap``."""
+    from ground.mcap_io.segments import merge
+    from tools.launcher import segment_path
+
+    segments: list[Path] = []
+    while segment_path(out, len(segments)).exists():
+        segments.append(segment_path(out, len(segments)))
+    if not segments:
+        return []
+    merged = merge(segments, out / "run.mcap.tmp")
+    os.replace(out / "run.mcap.tmp", out / "run.mcap")
+    print(f"navbank run: the recording's {len(segments)} segments were merged into {out / 'run.mcap'}", file=sys.stderr)
+    return [{"file": str(s.path), "messages": s.messages, "complete": s.complete,
+             "first_log_unix_s": None if s.first_log_ns is None else s.first_log_ns / 1e9,
+             "last_log_unix_s": None if s.last_log_ns is None else s.last_log_ns / 1e9} for s in merged]
+
+
+def _restarts_block(restarts: list[Restart], t0: float, mcap: Path, segments: list[Any],
+                    resent: list[int]) -> dict[str, Any]:
+    """The summary's ``restarts`` section: the launcher's record of each restart, how many
+    measurements the simulator sent again after each FSW restart (``resent``, in order, from its
+    status), and the logger's count of what it received twice (dropped) or never (lost)."""
+    from ground.mcap_io.reader import read_metadata
+
+    try:
+        logged = read_metadata(mcap).get("navbank.logger", {})
+    except Exception:  # a recording without the logger's closing record: nothing to add
+        logged = {}
+
+    def table(key: str) -> dict[str, int]:
+        try:
+            value = json.loads(logged.get(key, "{}"))
+        except ValueError:
+            return {}
+        return {str(k): int(v) for k, v in value.items()} if isinstance(value, dict) else {}
+
+    resent_after = iter(resent)
+    events = [{"process": r.process, "exit_code": r.exit_code, "at_unix_s": r.at_unix_s, "at_wall_s": r.at_wall_s,
+               "checkpoint_measurements": r.checkpoint_measurements, "checkpoint_t_s": r.checkpoint_t_s,
+               "checkpoint_day": None if r.checkpoint_t_s is None else (r.checkpoint_t_s - t0) / 86400.0,
+               "resent": next(resent_after, None) if r.process == "fsw" else None}
+              for r in restarts]
+    return {"events": events, "duplicates_dropped": table("duplicates"), "gaps": table("gaps"), "segments": segments}
+
+
 def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str | None, wall: float,
-             status: RunEnding, reason: str | None = None) -> RunSummary | dict[str, Any]:
+             status: RunEnding, reason: str | None = None, restarts: list[Restart] | None = None
+             ) -> RunSummary | dict[str, Any]:
     """The run's summary from what was recorded. A logger that died leaves run.mcap without its
     footer: what it holds is first rewritten into run.recovered.mcap. If nothing usable was
     recorded, a summary of just how the run ended."""
     from ground.mcap_io.reader import is_complete, read_messages, recover
     from ground.mcap_io.reader import summary as mcap_counts
     from ground.report.run_summary import summarize
-    from ground.report.summary_types import RunFiles
+    from fsw.interface import topics
+    from ground.report.summary_types import RestartsBlock, RunFiles
+    from sim.resend import RESENT
 
     mcap = out / "run.mcap"
     try:
+        segments = _merge_segments(out)
         if not is_complete(mcap):
             fixed = out / "run.recovered.mcap"
             recover(mcap, fixed)
@@ -98,7 +160,10 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
             raise
         return {"run_id": run_id, "status": status, "reason": reason,
                 "summary_error": f"{type(exc).__name__}: {exc}"[:500], "files": {"mcap": str(out / "run.mcap")}}
-    return dataclasses.replace(summary, run_id=run_id, status=status, reason=reason,
+    resent = [m.counts[RESENT] for t, m in messages if t == "/" + topics.SIM_STATUS and RESENT in m.counts]
+    block = None if restarts is None else RestartsBlock.from_json(
+        _restarts_block(restarts, init.t_s, mcap, segments, resent))
+    return dataclasses.replace(summary, run_id=run_id, status=status, reason=reason, restarts=block,
                                files=RunFiles(mcap=str(mcap), config=str(out / "config.yaml")))
 
 
@@ -121,6 +186,13 @@ def run(args) -> int:
     from tools.summary import describe
 
     cfg = with_budget(scenario_from_args(args), args.budget_mode, args.budget, args.cpu_scale)
+    if args.max_restarts < 0:
+        raise UsageError("--max-restarts must be >= 0")
+    if args.checkpoint_every is not None:
+        if args.checkpoint_every < 0:
+            raise UsageError("--checkpoint-every must be >= 0")
+        cfg = dataclasses.replace(cfg, fsw=dataclasses.replace(cfg.fsw, checkpoint=dataclasses.replace(
+            cfg.fsw.checkpoint, every_measurements=args.checkpoint_every)))
     cfg, seed = resolve(cfg, args.seed)
     run_id = args.run_id or new_run_id()
     out = Path(args.out or Path("runs") / run_id)
@@ -133,8 +205,10 @@ def run(args) -> int:
     status: RunEnding = "complete"
     reason: str | None = None
     code = 0
+    restarts: list[Restart] = []
     try:
-        launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo, authenticated=not args.plain_tcp)
+        launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo, max_restarts=args.max_restarts, restarts=restarts,
+               authenticated=not args.plain_tcp)
         if bar is not None:
             advance_to(bar, bar.total)  # the last measurement may come a little before the span's end
     except RunFailed as exc:
@@ -151,7 +225,8 @@ def run(args) -> int:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - t0
-    summary = _summary(cfg, seed, run_id, out, args.fault, wall, status, reason)
+    summary = _summary(cfg, seed, run_id, out, args.fault, wall, status, reason,
+                       restarts if args.max_restarts > 0 else None)
     try:
         path = write_summary(summary if isinstance(summary, dict) else summary.to_json(), out)
     except OSError as exc:

@@ -32,6 +32,8 @@ def add_arguments(p) -> None:
     p.add_argument("--consumers", default="fsw,ground", metavar="LIST",
                    help="roles that must be up before publishing and confirm the end (default fsw,ground)")
     p.add_argument("--window", type=int, default=2000, metavar="N", help="credit window: measurements ahead of the FSW (default 2000)")
+    p.add_argument("--hold-for-logger", type=float, default=None, metavar="S",
+                   help="once the logger was up, hold publishing while it is away (restarting), at most S seconds each time")
     add_transport_arguments(p)
 
 
@@ -88,12 +90,16 @@ def run(args) -> int:
             with joined(args, args.run_id, "sim") as transport:
                 counts = publish_run(run_, args.run_id, transport, consumers=consumers,
                                      credit_role="fsw" if "fsw" in consumers else None, window=args.window,
-                                     rate=args.rate, progress=lambda fraction: advance_to(bar, fraction * span))
+                                     rate=args.rate, progress=lambda fraction: advance_to(bar, fraction * span),
+                                     hold_for_logger_s=args.hold_for_logger)
         except tp.TransportError as exc:
             bar.close()
             print(f"navbank sim: {exc}", file=sys.stderr)
             return 1
         bar.close()
+        if counts.get("consumer_restarts"):
+            print(f"sim: the FSW restarted {counts['consumer_restarts']} time(s); {counts['resent']} measurements "
+                  "sent again after its checkpoints", file=sys.stderr)
         print(f"sim: published {counts.get('measurements', 0)} measurements as run {args.run_id}; "
               f"process CPU {time.process_time():.1f} s", file=sys.stderr)
     return 0

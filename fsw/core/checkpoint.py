@@ -1,0 +1,210 @@
+"""Checkpoints of the flight software: everything a restarted FSW needs to go on as if it had not died.
+
+What a checkpoint holds (and nothing else):
+
+* the :class:`~fsw.core.FswCore` — the filter bank, every gating network, the anomaly detector and
+  its reporter, the frame executive with its backlog, the sequence guard (re-order window, lost
+  ranges), the counters and the telemetry cadences — pickled whole, minus what belongs to the
+  process around it: its emit callback and the driver's extra counters (``FswCore.__getstate__``),
+  and the executive's lock (``FrameExecutive.__getstate__``);
+* ``measurements_taken``: how many measurement samples the process had taken from the transport
+  (its next expected publisher sequence number: the producer resends from there);
+* ``published``: each telemetry publisher's sequence counter, so telemetry emitted again after a
+  restart carries the numbers it carried the first time and the logger drops it as duplicates;
+* ``producer_end``: the producer's end-of-run status, once it has arrived.
+
+The file is one JSON header line (format, version, ICD schema version, run id, a hash of the FSW
+configuration, the payload's length and SHA-256, and the position in the stream) followed by the
+pickle. :func:`read` refuses, with one line, a file of another format or version, of another run
+or configuration, or whose payload does not match its hash — it never unpickles those. Writing is
+atomic (:func:`write`: temporary file, fsync, rename, fsync of the directory): a process killed
+while writing leaves the previous checkpoint intact.
+
+A checkpoint is trusted input: it is written and read by the same installation, in the run's own
+directory (pickle executes code on load; the hash guards against truncation, not against forgery).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import pickle
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fsw.config import FswConfig
+from fsw.core.fswcore import FswCore
+from fsw.core.telemetry import Emit
+from fsw.interface import codec, typed
+from fsw.interface.messages import SCHEMA_VERSION, RunStatus
+
+FORMAT = "navbank-fsw-checkpoint"
+#: Bumped whenever what is pickled changes shape: an older file is refused, not misread.
+VERSION = 1
+#: The header line is read before anything else; a longer one is not a checkpoint.
+MAX_HEADER_BYTES = 4096
+
+
+class CheckpointError(ValueError):
+    """A checkpoint that cannot be used; the message is one line naming the file."""
+
+
+@dataclass
+class Checkpoint:
+    """A restartable FSW: its core and where it stood on the bus."""
+
+    core: FswCore
+    measurements_taken: int
+    published: dict[str, int] = field(default_factory=dict)
+    producer_end: RunStatus | None = None
+
+
+@dataclass(frozen=True)
+class Header:
+    """The checkpoint's first line: what it is, whose it is, and where the FSW stood."""
+
+    run_id: str
+    config_sha256: str
+    measurements_taken: int
+    t_s: float  # epoch of the newest measurement handled (mission time)
+    payload_bytes: int
+    payload_sha256: str
+    producer_ended: bool
+
+
+def config_digest(config: FswConfig) -> str:
+    """SHA-256 of the FSW configuration's canonical JSON: a checkpoint resumes only the same FSW."""
+    text = json.dumps(typed.encode(config), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def dumps(ckpt: Checkpoint) -> bytes:
+    """The checkpoint file's bytes (header line + pickle)."""
+    payload = pickle.dumps(
+        {"core": ckpt.core, "measurements_taken": int(ckpt.measurements_taken),
+         "published": dict(ckpt.published),
+         "producer_end": None if ckpt.producer_end is None else codec.to_json(ckpt.producer_end)},
+        protocol=pickle.HIGHEST_PROTOCOL)
+    header = {
+        "format": FORMAT, "version": VERSION, "schema_version": SCHEMA_VERSION,
+        "run_id": ckpt.core.run_id, "config_sha256": config_digest(ckpt.core.config),
+        "measurements_taken": int(ckpt.measurements_taken), "t_s": float(ckpt.core.t_last),
+        "payload_bytes": len(payload), "payload_sha256": hashlib.sha256(payload).hexdigest(),
+        "producer_ended": ckpt.producer_end is not None,
+    }
+    return json.dumps(header, sort_keys=True).encode() + b"\n" + payload
+
+
+def write(path: str | os.PathLike[str], ckpt: Checkpoint) -> int:
+    """Write ``ckpt`` to ``path`` atomically (temporary file, fsync, rename, fsync of the
+    directory); returns the bytes written. The previous checkpoint stays until the rename."""
+    path = Path(path)
+    data = dumps(ckpt)
+    tmp = path.with_name(path.name + ".tmp")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    try:
+        view = memoryview(data)
+        while view:
+            view = view[os.write(fd, view):]
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    os.replace(tmp, path)
+    dfd = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(dfd)  # the rename itself survives a crash
+    finally:
+        os.close(dfd)
+    return len(data)
+
+
+def _split(path: Path, data: bytes) -> tuple[dict[str, Any], bytes]:
+    end = data.find(b"\n", 0, MAX_HEADER_BYTES)
+    try:
+        if end < 0:
+            raise ValueError("no header line")
+        header = json.loads(data[:end])
+        if not isinstance(header, dict):
+            raise ValueError("header is not an object")
+    except ValueError:
+        raise CheckpointError(f"{path}: not a navbank FSW checkpoint") from None
+    if header.get("format") != FORMAT:
+        raise CheckpointError(f"{path}: not a navbank FSW checkpoint")
+    if header.get("version") != VERSION or header.get("schema_version") != SCHEMA_VERSION:
+        raise CheckpointError(f"{path}: checkpoint version {header.get('version')} (ICD v{header.get('schema_version')}); "
+                              f"this FSW reads version {VERSION} (ICD v{SCHEMA_VERSION}) only")
+    return header, data[end + 1:]
+
+
+def _header(header: dict[str, Any]) -> Header:
+    return Header(run_id=str(header["run_id"]), config_sha256=str(header["config_sha256"]),
+                  measurements_taken=int(header["measurements_taken"]), t_s=float(header["t_s"]),
+                  payload_bytes=int(header["payload_bytes"]), payload_sha256=str(header["payload_sha256"]),
+                  producer_ended=bool(header["producer_ended"]))
+
+
+def read_header(path: str | os.PathLike[str]) -> Header:
+    """Only the header (what the launcher records of a restart); :class:`CheckpointError` if unusable."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            head = f.read(MAX_HEADER_BYTES)
+    except OSError as exc:
+        raise CheckpointError(f"{path}: {exc.strerror or exc}") from None
+    header, _ = _split(path, head)
+    try:
+        return _header(header)
+    except (KeyError, TypeError, ValueError):
+        raise CheckpointError(f"{path}: checkpoint header is incomplete") from None
+
+
+def read(path: str | os.PathLike[str], config: FswConfig, run_id: str, emit: Emit) -> Checkpoint:
+    """The checkpoint at ``path``, its core emitting through ``emit``.
+
+    Refused with :class:`CheckpointError` (one line) unless it is this format and version, of run
+    ``run_id``, of exactly ``config``, and its payload is whole."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise CheckpointError(f"{path}: {exc.strerror or exc}") from None
+    raw, payload = _split(path, data)
+    try:
+        header = _header(raw)
+    except (KeyError, TypeError, ValueError):
+        raise CheckpointError(f"{path}: checkpoint header is incomplete") from None
+    if header.run_id != run_id:
+        raise CheckpointError(f"{path}: checkpoint of run {header.run_id!r}, not {run_id!r}")
+    if header.config_sha256 != config_digest(config):
+        raise CheckpointError(f"{path}: checkpoint of another FSW configuration")
+    if len(payload) != header.payload_bytes or hashlib.sha256(payload).hexdigest() != header.payload_sha256:
+        raise CheckpointError(f"{path}: checkpoint is truncated or damaged ({len(payload)} of "
+                              f"{header.payload_bytes} bytes, or its hash differs)")
+    state = pickle.loads(payload)
+    core = state["core"]
+    if not isinstance(core, FswCore):
+        raise CheckpointError(f"{path}: checkpoint holds no FSW core")
+    core.attach(emit)
+    end = state["producer_end"]
+    return Checkpoint(core=core, measurements_taken=int(state["measurements_taken"]),
+                      published=dict(state["published"]),
+                      producer_end=None if end is None else codec.from_json(RunStatus, end))
+
+
+class Schedule:
+    """When the next checkpoint is due: every ``every_measurements`` taken or ``every_s`` of
+    mission time, whichever comes first (a zero turns that limit off)."""
+
+    def __init__(self, every_measurements: int, every_s: float, taken: int = 0, t_s: float = 0.0):
+        self.every_measurements, self.every_s = every_measurements, every_s
+        self.mark(taken, t_s)
+
+    def mark(self, taken: int, t_s: float) -> None:
+        """A checkpoint was written at ``taken`` measurements, mission time ``t_s``."""
+        self._taken, self._t_s = taken, t_s
+
+    def due(self, taken: int, t_s: float) -> bool:
+        return ((self.every_measurements > 0 and taken - self._taken >= self.every_measurements)
+                or (self.every_s > 0 and t_s - self._t_s >= self.every_s))
