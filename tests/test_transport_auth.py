@@ -179,7 +179,9 @@ def _end(counts: dict[str, int]) -> RunStatus:
 def test_a_forged_end_of_run_status_or_drain_ends_nothing(pair):
     producer, consumer = pair
     good, bad = auth.MessageAuthenticator(KEY), auth.MessageAuthenticator(bytes(32))
-    with T.Subscriber(consumer, RUN, ("sim/**",), decode=False, role="ground", authenticator=good) as sub, \
+    # dedupe as the logger does: the forged status (publisher number 0) must not make the real one
+    # (number 0 too) look like a repeat
+    with T.Subscriber(consumer, RUN, ("sim/**",), decode=False, role="ground", authenticator=good, dedupe=True) as sub, \
             T.Publisher(producer, RUN, topics.SIM_STATUS, authenticator=bad) as forger, \
             T.Publisher(producer, RUN, topics.SIM_STATUS, authenticator=good) as real:
         T.wait_for_consumers(producer, RUN, ["ground"], timeout_s=10)

@@ -346,6 +346,20 @@ class Subscriber:
         payload = sample.payload.to_bytes()
         schema = wire.schema_of(sample.encoding)
         pub_seq = wire.sequence_of(sample.attachment)
+        try:
+            cls = topics.type_of_topic(topic)
+        except KeyError:
+            cls = None
+        if self.authenticator is not None and cls is RunStatus:
+            # authenticated before it counts for anything: a forged status must not take the place
+            # of the producer's own (its sequence number, or a repeat of it)
+            try:
+                status: RunStatus | None = codec.from_json(RunStatus, payload)
+            except codec.ICDError:
+                status = None  # counted as a decode error below
+            if status is not None and (why := self.authenticator.refusal(status)):
+                self._count_refused(topic, why)
+                return None if self.decode else Received(topic, payload, now, schema, status, pub_seq, why)
         with self._lock:
             self._last_sample = time.monotonic()
             if topic in self._in_order and pub_seq != self._next_seq[topic]:
@@ -366,11 +380,6 @@ class Subscriber:
                 else:
                     self._next_seq[topic] = pub_seq + 1
         message: object | None = None
-        refused = ""
-        try:
-            cls = topics.type_of_topic(topic)
-        except KeyError:
-            cls = None
         if self.decode or cls is RunStatus:
             try:
                 if cls is None:
@@ -384,13 +393,6 @@ class Subscriber:
                     self.last_error = f"{topic}: {exc}"
                 if self.decode:
                     return None
-            if isinstance(message, RunStatus) and self.authenticator is not None:
-                refused = self.authenticator.refusal(message) or ""
-                if refused:
-                    self._count_refused(topic, refused)
-                    if self.decode:
-                        return None
-                    return Received(topic, payload, now, schema, message, pub_seq, refused)
             if isinstance(message, RunStatus) and message.state == "end-of-run":
                 self.end_of_run[message.source] = message
             t_s = getattr(message, "t_s", None)
