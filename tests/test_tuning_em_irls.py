@@ -108,3 +108,44 @@ def test_max_iterations_stops_unconverged():
 def test_bad_input_is_refused(bad):
     with pytest.raises(ValueError):
         em.run_em(bad)
+
+
+def test_switch_is_where_the_lead_changes_for_good():
+    from ground.tuning.recorded_residuals import switch_index
+
+    top = np.array([[0.6, 0.4]] * 30 + [[0.3, 0.7]] * 5 + [[0.6, 0.4]] * 5 + [[0.2, 0.8]] * 60)
+    assert switch_index(top) == 40
+    assert switch_index(np.array([[0.6, 0.4]] * 50)) is None
+    assert switch_index(np.array([[0.6, 0.4]] * 3 + [[0.2, 0.8]] * 97)) is None  # start-up, not a switch
+
+
+def test_cli_em_refuses_a_missing_recording(tmp_path, capsys):
+    from tools.cli import main
+
+    assert main(["tune", "em", str(tmp_path / "none.mcap"), "--out", str(tmp_path / "em")]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_pathfinder_cruise_em_on_a_recording(tmp_path, capsys):
+    """Chaer et al. 1998 §V with EM: on a recorded `pathfinder-cruise` run (flown in process, recorded with
+    its configuration), `navbank tune em` re-runs the recording, splits at the online switch, and EM's
+    likelihood rises monotonically in both segments to top-level weights favouring bank 2 before
+    the switch and bank 3 after it; bank 3 picks KF 2|3 after it."""
+    import json
+
+    from tools.cli import main
+    from tools.validation.chaer1998_em import cruise_recording
+
+    rec = cruise_recording(tmp_path / "cruise.mcap", seed=1)
+    assert main(["tune", "em", str(rec), "--out", str(tmp_path / "em")]) == 0
+    out = json.loads((tmp_path / "em" / "em.json").read_text())
+    assert out["split"] is not None and len(out["segments"]) == 2
+    before, after = out["segments"]
+    for seg in (before, after):
+        ll = np.array(seg["log_likelihood"])
+        assert seg["converged"] and np.all(np.diff(ll) >= -1e-9 * abs(ll[-1]))
+    assert max(before["top"], key=before["top"].get) == "bank2"
+    assert max(after["top"], key=after["top"].get) == "bank3"
+    assert max(after["in_bank"]["bank3"], key=after["in_bank"]["bank3"].get) == "kf2_3"
+    assert (tmp_path / "em" / "em-weights.png").stat().st_size > 0

@@ -159,10 +159,22 @@ def _check(log_f: list[np.ndarray], phi: np.ndarray | None) -> tuple[list[np.nda
     return log_f, phi
 
 
+def _weight_vector(theta: Hierarchy, phi: np.ndarray) -> np.ndarray:
+    top, banks = weights(theta, phi)
+    return np.concatenate([top.mean(axis=0), *[b.mean(axis=0) for b in banks]])
+
+
 def run_em(log_f: list[np.ndarray], phi: np.ndarray | None = None, *, theta0: Hierarchy | None = None,
-           epsilon: float = 1e-6, max_iterations: int = 500, irls_steps: int = 50) -> EmResult:
+           epsilon: float = 1e-6, max_iterations: int = 500, irls_steps: int = 50,
+           change_of: str = "parameters") -> EmResult:
     """Chaer et al. 1998 §IV algorithm summary, steps 1–4: E step, IRLS for the top gate (eq. 22),
-    weighted IRLS for each bank's gate (eq. 23), until the L1 change of Θ is below ε."""
+    weighted IRLS for each bank's gate (eq. 23), until the L1 change of Θ is below ε.
+
+    ``change_of = "weights"`` measures the change on the gate weights (averaged over the set)
+    instead: where a weight tends to zero its cell's parameters grow without bound (ever more
+    slowly), so the parameters' change never falls below ε although the weights have settled."""
+    if change_of not in ("parameters", "weights"):
+        raise ValueError(f"change_of must be 'parameters' or 'weights', got {change_of!r}")
     log_f, phi = _check(log_f, phi)
     theta = (theta0 or initial(len(log_f), [x.shape[1] for x in log_f], phi.shape[1])).copy()
     out = EmResult(theta, [log_likelihood(theta, log_f, phi)])
@@ -171,7 +183,10 @@ def run_em(log_f: list[np.ndarray], phi: np.ndarray | None = None, *, theta0: Hi
         h_top, h_in = posteriors(theta, log_f, phi)
         new = Hierarchy(irls(theta.top, phi, h_top, ones, steps=irls_steps),
                         [irls(theta.banks[i], phi, h_in[i], h_top[:, i], steps=irls_steps) for i in range(len(log_f))])
-        change = float(np.sum(np.abs(new.vector() - theta.vector())))
+        if change_of == "parameters":
+            change = float(np.sum(np.abs(new.vector() - theta.vector())))
+        else:
+            change = float(np.sum(np.abs(_weight_vector(new, phi) - _weight_vector(theta, phi))))
         ll = log_likelihood(new, log_f, phi)
         if ll < out.log_likelihood[-1] - 1e-9 * max(1.0, abs(out.log_likelihood[-1])):
             raise LikelihoodDecreased(f"eq. 17 fell from {out.log_likelihood[-1]:.12g} to {ll:.12g}")

@@ -1,6 +1,7 @@
 """``navbank tune``: tune a filter bank on a post-processed measurement set.
 
     navbank tune ga [--mcap RUN.mcap | --data-seed N] [--eta 1] [--workers N] [--out DIR]
+    navbank tune em RUN.mcap [--split-day D] [--epsilon E] [--out DIR]
 
 ``ga`` — Chaer et al. 1997 §VII–VIII: a bank of --population filters of the linear tracking example
 (α = [q1 q2 r1 r2], each coded in --bits bits on --interval by eq. 33) processes the whole
@@ -11,7 +12,15 @@ The set is the ``generic-linear`` measurements of a recording (--mcap) or a simu
 set (truth α* = [4.31 22.45 24.01 11.42], --length measurements). Each generation's bank is
 processed in --workers pieces (local processes, or dask with --executor dask / --scheduler).
 Writes DIR/ga.json (every generation) and DIR/ga-clusters.png (the Fig. 15 analogue) and prints
-Table VII's rows. Exit codes: 0 done (converged or not), 2 bad arguments or input.
+Table VII's rows.
+
+``em`` — Chaer et al. 1998 §IV: the recorded run's measurements are re-run through its recorded FSW
+(as `navbank replay --rerun` does) to recompute every filter's residual log-density; the set is split
+where the online hierarchical gate's top-level lead changes for good (or at --split-day), and EM
+with IRLS solves each segment's top-level and in-bank gate parameters until the L1 change of the
+weights is below --epsilon. Writes DIR/em.json and DIR/em-weights.png (online against EM weights).
+
+Exit codes: 0 done (converged or not), 2 bad arguments or input.
 """
 
 from __future__ import annotations
@@ -26,7 +35,7 @@ from tools.commands.errors import UsageError
 from tools.commands.outputs import check_output_dir
 
 NAME = "tune"
-HELP = "tune a filter bank on post-processed measurements (GA of Chaer et al. 1997)"
+HELP = "tune a filter bank on post-processed measurements (GA of Chaer et al. 1997, EM of Chaer et al. 1998)"
 DESCRIPTION = __doc__.split("\n", 2)[2] if __doc__ else HELP
 
 
@@ -53,6 +62,14 @@ def add_arguments(p) -> None:
     g.add_argument("--scheduler", metavar="ADDR", default=None, help="dask scheduler address (tcp://HOST:PORT)")
     g.add_argument("--out", metavar="DIR", default="tune-ga", help="output directory (default ./tune-ga)")
     g.add_argument("--quiet", action="store_true", help="no progress bar")
+    e = sub.add_parser("em", help="EM with IRLS for the hierarchical gate on a recording (Chaer et al. 1998 §IV)",
+                       description=DESCRIPTION)
+    e.add_argument("mcap", metavar="RUN.mcap", help="recording of a run with a hierarchical gating network")
+    e.add_argument("--split-day", type=float, default=None, metavar="D",
+                   help="split the set D days after its first measurement (default: at the online gate's switch)")
+    e.add_argument("--epsilon", type=float, default=1e-4, help="L1 change of the weights that stops EM (default 1e-4)")
+    e.add_argument("--max-iterations", type=int, default=5000, metavar="N", help="(default 5000)")
+    e.add_argument("--out", metavar="DIR", default="tune-em", help="output directory (default ./tune-em)")
 
 
 def _settings(args):
@@ -133,7 +150,62 @@ def run_ga(args) -> int:
     return 0
 
 
+def run_em(args) -> int:
+    from fsw.interface.yamlconfig import ConfigError
+    from ground.mcap_io.reader import McapReadError
+    from ground.report.figure import PlottingUnavailable
+    from ground.tuning.em_irls import LikelihoodDecreased
+    from ground.tuning.recorded_residuals import recorded_hierarchy, switch_index
+    from ground.tuning.segment_em import fit_segments
+    from tools.validation.chaer1998_em import DAY_S, plot_em
+
+    if not (args.epsilon > 0.0):
+        raise UsageError("--epsilon must be positive")
+    if args.max_iterations < 1:
+        raise UsageError("--max-iterations must be at least 1")
+    out = Path(args.out)
+    check_output_dir(out)
+    try:
+        data = recorded_hierarchy(args.mcap)
+    except (OSError, McapReadError, ValueError, ConfigError) as exc:
+        raise UsageError(f"cannot re-run {args.mcap}: {exc}") from None
+    if args.split_day is None:
+        split = switch_index(data.online_top)
+    else:
+        split = int(np.searchsorted(data.t_s, data.t_s[0] + args.split_day * DAY_S))
+        if not 0 < split < len(data.t_s):
+            raise UsageError(f"--split-day {args.split_day:g} is outside the recorded measurements")
+    try:
+        fits = fit_segments(data, split, epsilon=args.epsilon, max_iterations=args.max_iterations)
+    except LikelihoodDecreased as exc:
+        print(f"navbank tune: EM failed: {exc}", file=sys.stderr)
+        return 1
+    record = {"source": str(args.mcap), "measurements": len(data.t_s), "split": split, "banks": data.bank_filters,
+              "segments": [f.as_dict(data) for f in fits]}
+    (out / "em.json").write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+    try:
+        fig = plot_em(data, fits, out / "em-weights.png")
+    except PlottingUnavailable as exc:
+        fig = None
+        print(f"navbank tune: {exc}; no figure", file=sys.stderr)
+    where = "no switch found" if split is None else f"split at point {split}, day {(data.t_s[split] - data.t_s[0]) / DAY_S:.1f}"
+    print(f"{len(data.t_s)} measurements re-run; {where}")
+    for k, f in enumerate(fits):
+        ll = f.result.log_likelihood
+        state = "converged" if f.result.converged else "not converged"
+        print(f"segment {k + 1} [{f.start}, {f.stop}): {f.result.iterations} EM iterations ({state}), "
+              f"log-likelihood {ll[0]:.1f} -> {ll[-1]:.1f}")
+        print("  top: " + ", ".join(f"{b} {w:.3f}" for b, w in zip(data.banks, f.top)))
+        for i, b in enumerate(data.banks):
+            print(f"  {b}: " + ", ".join(f"{n} {w:.3f}" for n, w in zip(data.bank_filters[b], f.in_bank[i])))
+    print(f"wrote {out / 'em.json'}" + (f" and {fig}" if fig else ""))
+    return 0
+
+
 def run(args) -> int:
-    if getattr(args, "method", None) == "ga":
+    method = getattr(args, "method", None)
+    if method == "ga":
         return run_ga(args)
-    raise UsageError("choose a method: navbank tune ga (see navbank tune --help)")
+    if method == "em":
+        return run_em(args)
+    raise UsageError("choose a method: navbank tune ga|em (see navbank tune --help)")

@@ -576,6 +576,10 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
 
         sections.append(chaer1998_section(fig_dir, out_dir))
         sections[-1].discussion = CHAER1998_DISCUSSION
+        from tools.validation.chaer1998_em import EM_DISCUSSION, em_section
+
+        sections.append(em_section(None, fig_dir, out_dir))
+        sections[-1].discussion = EM_DISCUSSION
     for name, patterns, make, discussion in campaign_sections[2:]:
         if name in reports:
             sections.append(make(campaigns_dir / name, copy_figures(reports[name], patterns, fig_dir, name), out_dir))
