@@ -36,6 +36,7 @@ COMMANDS = (
     "tools.commands.report",
     "tools.commands.campaign",
     "tools.commands.calibrate",
+    "tools.commands.tune",
     "tools.commands.validation_report",
 )
 

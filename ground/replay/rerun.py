@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from fsw.config import FswConfig
@@ -85,11 +85,15 @@ def _serve(core: FswCore, record: CommandRecord) -> None:
 
 
 def rerun_fsw(config: FswConfig, stream: list[Measurement | bytes], run_id: str = "rerun",
-              commands: Sequence[CommandRecord] = ()) -> RerunResult:
-    """Run ``config``'s FSW over ``stream`` the way the FSW process does; collect its telemetry."""
+              commands: Sequence[CommandRecord] = (), observe: Callable[[FswCore], None] | None = None) -> RerunResult:
+    """Run ``config``'s FSW over ``stream`` the way the FSW process does; collect its telemetry.
+    ``observe`` is handed the core before it starts (ground post-processing taps what the bank
+    computes, e.g. ``ground.tuning.recorded_residuals``)."""
     result = RerunResult()
     t0 = time.monotonic()
     core = FswCore(config, lambda topic, msg: result.outputs.append((topic, msg)), run_id=run_id)
+    if observe is not None:
+        observe(core)
     core.start()
     during = sorted((c for c in commands if not c.ended), key=lambda c: c.taken)  # stable: served order
     k = 0

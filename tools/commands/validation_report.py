@@ -9,8 +9,9 @@ Run the four built-in validation campaigns first (each resumes if interrupted), 
     navbank validation-report --campaigns campaigns --out docs
 
 It reads the campaigns' runs, draws their figures (``navbank report``), runs the Chaer et al. 1997
-tracking experiments (~15 s), the Chaer et al. 1998 Pathfinder cruise (one in-process run, ~1 min) and the
-optical-navigation camera experiment (27 optical-only runs, ~3 min), and writes OUT/validation.md with OUT/figures/. A campaign directory that is missing leaves its
+tracking experiments (~15 s) and its GA tuning (~40 s), the Chaer et al. 1998 Pathfinder cruise (in-process
+runs, ~2 min, with EM on one recorded) and the optical-navigation camera experiment (27 optical-only runs,
+~3 min), and writes OUT/validation.md with OUT/figures/. A campaign directory that is missing leaves its
 section out (the command says which). Exit codes: 0 written, 2 bad arguments or no matplotlib.
 """
 

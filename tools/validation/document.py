@@ -536,7 +536,8 @@ def render(sections: list[Section], *, generated: str, commands: list[str]) -> s
 
 
 def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
-          chaer1997: Callable[[], Any] | None = None, optical: bool = True) -> Path:
+          chaer1997: Callable[[], Any] | None = None, chaer1997_ga: Callable[[], Any] | None = None,
+          optical: bool = True) -> Path:
     """Write ``out_dir/validation.md`` and ``out_dir/figures/``."""
     from ground.report.build import report_campaign
     from tools.validation.chaer1997 import plot_experiment_3, run_chaer1997
@@ -566,11 +567,19 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
     results = (chaer1997 or run_chaer1997)()
     sections.append(chaer1997_section(results, plot_experiment_3(results, fig_dir / "chaer1997-experiment3.png"), out_dir))
     sections[-1].discussion = CHAER1997_DISCUSSION
+    from tools.validation.chaer1997_ga import GA_DISCUSSION, ga_section, run_campaign
+
+    sections.append(ga_section((chaer1997_ga or run_campaign)(), fig_dir, out_dir))
+    sections[-1].discussion = GA_DISCUSSION
     if cruise:
         from tools.validation.chaer1998 import chaer1998_section
 
         sections.append(chaer1998_section(fig_dir, out_dir))
         sections[-1].discussion = CHAER1998_DISCUSSION
+        from tools.validation.chaer1998_em import EM_DISCUSSION, em_section
+
+        sections.append(em_section(None, fig_dir, out_dir))
+        sections[-1].discussion = EM_DISCUSSION
     for name, patterns, make, discussion in campaign_sections[2:]:
         if name in reports:
             sections.append(make(campaigns_dir / name, copy_figures(reports[name], patterns, fig_dir, name), out_dir))
