@@ -52,7 +52,8 @@ def run_fsw(
     ``hold_for_logger_s`` telemetry waits while the logger is away (being restarted), at most
     that long each time."""
     with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=handle_signals) as life:
-        restored = None if resume is None else checkpoint.read(resume, config, run_id, life.put)
+        signer = None if life.authenticator is None else life.authenticator.file_tag
+        restored = None if resume is None else checkpoint.read(resume, config, run_id, life.put, signer)
         if restored is None:
             core = FswCore(config, life.put, run_id=run_id)
         else:
@@ -71,6 +72,8 @@ def run_fsw(
                 sub.end_of_run[producer] = restored.producer_end
         server = life.command_server(core.command, threaded=False, on_malformed=core.record_malformed_command,
                                      on_refused=core.record_refused_command)
+        if restored is not None:
+            server.restore_nonces(restored.accepted_nonces)
         refused = 0
         at_stop: dict[str, int] = {}  # counters added as it goes or stops
         core.extra_counters = lambda: {
@@ -87,12 +90,17 @@ def run_fsw(
         ckpt = config.checkpoint
         schedule = checkpoint.Schedule(ckpt.every_measurements, ckpt.every_s, core.taken, core.t_last)
 
+        served_at_save = server.served
+
         def save() -> None:
+            nonlocal served_at_save
+            served_at_save = server.served
             if checkpoint_path is None:
                 return
             try:
                 checkpoint.write(checkpoint_path, checkpoint.Checkpoint(
-                    core, core.taken, {t: p.count for t, p in life.publishers.items()}, sub.end_of_run.get(producer)))
+                    core, core.taken, {t: p.count for t, p in life.publishers.items()}, sub.end_of_run.get(producer),
+                    server.accepted_nonces), signer)
             except OSError:
                 # a full disk must not stop the flight software: the previous checkpoint stays
                 at_stop["checkpoint_errors"] = at_stop.get("checkpoint_errors", 0) + 1
@@ -104,7 +112,9 @@ def run_fsw(
         next_progress = 0.0
         while True:
             got = sub.recv(timeout=0.02)
-            life.poll_commands()
+            if life.poll_commands() and server.served != served_at_save:
+                # a served command changes state: keep it (and its nonce) before anything else
+                save()
             now = time.monotonic()
             if got is not None:
                 last_data = now

@@ -4,14 +4,16 @@ uninterrupted core emits; unusable files are refused with one line; writing is a
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
+import pickle
 
 import pytest
 
 from fsw.core import FswCore
 from fsw.core import checkpoint as ck
-from fsw.interface import codec
+from fsw.interface import auth, codec
 from fsw.interface.messages import Measurement, RunStatus, Stamp
 from sim.stream import SimRun, generate
 from tools.scenario import ScenarioConfig, load_text_scenario, resolve
@@ -172,3 +174,44 @@ def test_navbank_fsw_refuses_an_unusable_checkpoint_in_one_line(tmp_path, short_
     assert proc.returncode == 2
     assert proc.stderr.strip().splitlines()[-1] == f"navbank fsw: {tmp_path / 'bad.ckpt'}: not a navbank FSW checkpoint"
     assert "Traceback" not in proc.stderr
+
+
+def test_with_the_run_key_only_a_signed_checkpoint_is_loaded(flown, tmp_path):
+    """Unpickling runs code: a checkpoint whose payload was swapped — even with its length and
+    SHA-256 fixed up to match — is refused before it is loaded when the run has a key."""
+    cfg, run = flown
+    key = auth.MessageAuthenticator(b"k" * 32)
+    other = auth.MessageAuthenticator(b"o" * 32)
+    core = FswCore(cfg.fsw, lambda t, m: None, run_id="r")
+    for meas in run.measurements[:50]:
+        core.ingest(meas)
+    path = tmp_path / "fsw.ckpt"
+    ck.write(path, ck.Checkpoint(core, 50, {}, None, ["n1", "n2"]), key.file_tag)
+    restored = ck.read(path, cfg.fsw, "r", lambda t, m: None, key.file_tag)
+    assert restored.accepted_nonces == ["n1", "n2"] and restored.measurements_taken == 50
+
+    with pytest.raises(ck.CheckpointError, match="not signed with this run's key"):
+        ck.read(path, cfg.fsw, "r", lambda t, m: None, other.file_tag)
+
+    # a forger without the key: a different payload with a consistent length and hash
+    header, _ = path.read_bytes().split(b"\n", 1)
+    forged = pickle.dumps({"core": "x", "measurements_taken": 0, "published": {}, "producer_end": None})
+    h = json.loads(header)
+    h.update(payload_bytes=len(forged), payload_sha256=hashlib.sha256(forged).hexdigest())
+    path.write_bytes(json.dumps(h).encode() + b"\n" + forged)
+    with pytest.raises(ck.CheckpointError, match="not signed with this run's key"):
+        ck.read(path, cfg.fsw, "r", lambda t, m: None, key.file_tag)
+
+    # an unsigned checkpoint (written without credentials) is not accepted by a keyed FSW
+    ck.write(path, ck.Checkpoint(core, 50))
+    with pytest.raises(ck.CheckpointError, match="not signed"):
+        ck.read(path, cfg.fsw, "r", lambda t, m: None, key.file_tag)
+
+
+def test_served_nonces_survive_a_restart():
+    guard = auth.NonceGuard(capacity=4)
+    for n in ("a", "b", "c"):
+        assert guard.first_use(n)
+    again = auth.NonceGuard(capacity=4)
+    again.restore(guard.snapshot())
+    assert [again.first_use(n) for n in ("a", "b", "c", "d")] == [False, False, False, True]

@@ -11,7 +11,11 @@ What a checkpoint holds (and nothing else):
   (its next expected publisher sequence number: the producer resends from there);
 * ``published``: each telemetry publisher's sequence counter, so telemetry emitted again after a
   restart carries the numbers it carried the first time and the logger drops it as duplicates;
-* ``producer_end``: the producer's end-of-run status, once it has arrived.
+* ``producer_end``: the producer's end-of-run status, once it has arrived;
+* ``accepted_nonces``: the telecommand nonces already served (a run with credentials), so a
+  restarted FSW refuses a captured command replayed at it just as the first one would have. The
+  FSW checkpoints right after serving a telecommand, so neither a command's effect nor its nonce
+  falls between two checkpoints.
 
 The file is one JSON header line (format, version, ICD schema version, run id, a hash of the FSW
 configuration, the payload's length and SHA-256, and the position in the stream) followed by the
@@ -20,17 +24,22 @@ or configuration, or whose payload does not match its hash — it never unpickle
 atomic (:func:`write`: temporary file, fsync, rename, fsync of the directory): a process killed
 while writing leaves the previous checkpoint intact.
 
-A checkpoint is trusted input: it is written and read by the same installation, in the run's own
-directory (pickle executes code on load; the hash guards against truncation, not against forgery).
+Pickle executes code on load, and the SHA-256 guards against truncation, not against forgery.
+In a run with credentials the header therefore also carries an HMAC-SHA256 of the payload under
+the run's key (``payload_hmac``), and :func:`read` given the key refuses a file without a valid
+one before unpickling: only a holder of the run's key can hand the FSW a checkpoint. Without
+credentials a checkpoint is trusted input, like the rest of the run's directory.
 """
 
 from __future__ import annotations
 
 import hashlib
+import hmac
 import json
 import os
 import pickle
 from dataclasses import dataclass, field
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -42,7 +51,7 @@ from fsw.interface.messages import SCHEMA_VERSION, RunStatus
 
 FORMAT = "navbank-fsw-checkpoint"
 #: Bumped whenever what is pickled changes shape: an older file is refused, not misread.
-VERSION = 1
+VERSION = 2
 #: The header line is read before anything else; a longer one is not a checkpoint.
 MAX_HEADER_BYTES = 4096
 
@@ -59,6 +68,8 @@ class Checkpoint:
     measurements_taken: int
     published: dict[str, int] = field(default_factory=dict)
     producer_end: RunStatus | None = None
+    # telecommand nonces already served: a restarted FSW must not serve a captured command again
+    accepted_nonces: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -80,12 +91,22 @@ def config_digest(config: FswConfig) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def dumps(ckpt: Checkpoint) -> bytes:
-    """The checkpoint file's bytes (header line + pickle)."""
+#: Signs checkpoint bytes under the run's key (hex digest), e.g.
+#: :meth:`fsw.interface.auth.MessageAuthenticator.file_tag`.
+Signer = Callable[[bytes], str]
+
+
+def dumps(ckpt: Checkpoint, signer: Signer | None = None) -> bytes:
+    """The checkpoint file's bytes (header line + pickle).
+
+    With ``signer`` (a run with credentials) the header carries an HMAC of the payload, and
+    :func:`read` with the same key unpickles nothing that lacks it: unpickling runs code, so a
+    checkpoint edited by anyone without the run's key must be refused before it is loaded."""
     payload = pickle.dumps(
         {"core": ckpt.core, "measurements_taken": int(ckpt.measurements_taken),
          "published": dict(ckpt.published),
-         "producer_end": None if ckpt.producer_end is None else codec.to_json(ckpt.producer_end)},
+         "producer_end": None if ckpt.producer_end is None else codec.to_json(ckpt.producer_end),
+         "accepted_nonces": list(ckpt.accepted_nonces)},
         protocol=pickle.HIGHEST_PROTOCOL)
     header = {
         "format": FORMAT, "version": VERSION, "schema_version": SCHEMA_VERSION,
@@ -94,14 +115,16 @@ def dumps(ckpt: Checkpoint) -> bytes:
         "payload_bytes": len(payload), "payload_sha256": hashlib.sha256(payload).hexdigest(),
         "producer_ended": ckpt.producer_end is not None,
     }
+    if signer is not None:
+        header["payload_hmac"] = signer(payload)
     return json.dumps(header, sort_keys=True).encode() + b"\n" + payload
 
 
-def write(path: str | os.PathLike[str], ckpt: Checkpoint) -> int:
+def write(path: str | os.PathLike[str], ckpt: Checkpoint, signer: Signer | None = None) -> int:
     """Write ``ckpt`` to ``path`` atomically (temporary file, fsync, rename, fsync of the
     directory); returns the bytes written. The previous checkpoint stays until the rename."""
     path = Path(path)
-    data = dumps(ckpt)
+    data = dumps(ckpt, signer)
     tmp = path.with_name(path.name + ".tmp")
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     try:
@@ -160,11 +183,13 @@ def read_header(path: str | os.PathLike[str]) -> Header:
         raise CheckpointError(f"{path}: checkpoint header is incomplete") from None
 
 
-def read(path: str | os.PathLike[str], config: FswConfig, run_id: str, emit: Emit) -> Checkpoint:
+def read(path: str | os.PathLike[str], config: FswConfig, run_id: str, emit: Emit,
+         signer: Signer | None = None) -> Checkpoint:
     """The checkpoint at ``path``, its core emitting through ``emit``.
 
     Refused with :class:`CheckpointError` (one line) unless it is this format and version, of run
-    ``run_id``, of exactly ``config``, and its payload is whole."""
+    ``run_id``, of exactly ``config``, its payload is whole, and — with ``signer`` — its payload
+    carries the run key's HMAC (checked before anything is unpickled)."""
     path = Path(path)
     try:
         data = path.read_bytes()
@@ -182,6 +207,10 @@ def read(path: str | os.PathLike[str], config: FswConfig, run_id: str, emit: Emi
     if len(payload) != header.payload_bytes or hashlib.sha256(payload).hexdigest() != header.payload_sha256:
         raise CheckpointError(f"{path}: checkpoint is truncated or damaged ({len(payload)} of "
                               f"{header.payload_bytes} bytes, or its hash differs)")
+    if signer is not None:
+        tag = raw.get("payload_hmac")
+        if not isinstance(tag, str) or not hmac.compare_digest(tag, signer(payload)):
+            raise CheckpointError(f"{path}: checkpoint is not signed with this run's key")
     state = pickle.loads(payload)
     core = state["core"]
     if not isinstance(core, FswCore):
@@ -190,7 +219,8 @@ def read(path: str | os.PathLike[str], config: FswConfig, run_id: str, emit: Emi
     end = state["producer_end"]
     return Checkpoint(core=core, measurements_taken=int(state["measurements_taken"]),
                       published=dict(state["published"]),
-                      producer_end=None if end is None else codec.from_json(RunStatus, end))
+                      producer_end=None if end is None else codec.from_json(RunStatus, end),
+                      accepted_nonces=[str(n) for n in state.get("accepted_nonces", [])])
 
 
 class Schedule:

@@ -165,6 +165,15 @@ class CommandServer:
             n += 1
         return n
 
+    @property
+    def accepted_nonces(self) -> list[str]:
+        """Nonces of the authenticated telecommands served so far (for a checkpoint)."""
+        return self._nonces.snapshot()
+
+    def restore_nonces(self, nonces: list[str]) -> None:
+        """Refuse ``nonces`` as replays from now on (a restarted FSW, from its checkpoint)."""
+        self._nonces.restore(nonces)
+
     def status(self) -> dict[str, float]:
         with self._lock:
             return {"served": self.served, "malformed": self.malformed, "refused": self.refused,
