@@ -6,6 +6,7 @@ import pickle
 
 import numpy as np
 import pytest
+from scipy.optimize import minimize
 from scipy.stats import multivariate_normal
 
 from fsw.filters.linear import LinearFilterBank
@@ -61,7 +62,7 @@ def test_optimum_matches_brute_force_grid():
     w = LinearWindow([[1.0]], [[1.0]], [0.0], [[100.0]], _random_walk(2.0, 5.0, 300, 1), predict_first=False)
     b = RqpBounds((0.01, 0.01), (20.0, 20.0))
     s = RqpSearch(w, b, np.array([10.0, 1.0]), max_iter=100)
-    a = s.run(slice_iterations=2)  # restarted every 2 iterations: the sliced search still converges
+    a = s.run(slice_evaluations=1)  # paused after every evaluation
     qs, rs = np.linspace(0.5, 6.0, 221), np.linspace(1.0, 10.0, 181)
     G = np.array(np.meshgrid(qs, rs, indexing="ij")).reshape(2, -1).T
     J = w.nll(G)
@@ -79,14 +80,37 @@ def test_optimum_on_the_box_when_the_truth_is_outside():
     assert np.all(a >= b.lower) and np.all(a <= b.upper)
 
 
-def test_each_slice_is_bounded():
+def test_each_slice_is_bounded_and_slicing_changes_nothing():
+    """Paused after every evaluation or run in one go, the search is scipy's own SLSQP: same path,
+    same optimum as ``minimize(method="SLSQP")`` on the same variables (u = ln α, J / P)."""
     w = LinearWindow([[1.0]], [[1.0]], [0.0], [[100.0]], _random_walk(2.0, 5.0, 200, 4), predict_first=False)
-    s = RqpSearch(w, RqpBounds((0.01, 0.01), (20.0, 20.0)), np.array([15.0, 0.5]), max_iter=12)
-    steps = 0
-    while not s.step(1):
-        steps += 1
-        assert s.iterations <= steps + 1
-    assert s.iterations <= 12
+    b = RqpBounds((0.01, 0.01), (20.0, 20.0))
+    s = RqpSearch(w, b, np.array([15.0, 0.5]))
+    while True:
+        before = s.evaluations
+        done = s.step(2)
+        assert s.evaluations - before <= 2 or s.evaluations - before == 4  # one J, or one gradient (2·dim)
+        if done:
+            break
+    whole = RqpSearch(w, b, np.array([15.0, 0.5]))
+    whole.run(10_000)
+    np.testing.assert_array_equal(s.best, whole.best)
+    ref = minimize(lambda u: w.nll(np.exp(u))[0] / 200, np.log([15.0, 0.5]),
+                   jac=lambda u: central_gradient(w, np.exp(u), b) * np.exp(u) / 200, method="SLSQP",
+                   bounds=list(zip(np.log(b.lower), np.log(b.upper))), options={"ftol": 1e-6, "maxiter": 100})
+    assert s.status == ref.status == 0
+    np.testing.assert_allclose(np.log(s.best), ref.x, rtol=1e-10, atol=1e-12)
+
+
+def test_search_state_pickles_mid_run():
+    w = LinearWindow([[1.0]], [[1.0]], [0.0], [[100.0]], _random_walk(2.0, 5.0, 200, 5), predict_first=False)
+    b = RqpBounds((0.01, 0.01), (20.0, 20.0))
+    s = RqpSearch(w, b, np.array([15.0, 0.5]))
+    for _ in range(4):
+        s.step(3)
+    s2 = pickle.loads(pickle.dumps(s))
+    s.run(3), s2.run(3)
+    np.testing.assert_array_equal(s.best, s2.best)
 
 
 def test_bounds_are_validated():

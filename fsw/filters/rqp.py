@@ -12,21 +12,21 @@ in the paper, but all 2·dim(α) perturbed filters run as one stacked batch, so 
 one vectorised pass over the window instead of 2·dim(α) passes. The paper writes ln 2π|W|; the full
 m-variate normaliser only adds a constant to J and does not move the optimum.
 
-The search is split so it never holds the processor for long: :class:`RqpSearch` runs at most a
-given number of SLSQP iterations per call and resumes from its best point on the next call (warm
-start), so a caller can spend one slice per executive frame in the lowest-priority slot and apply the
-result when it is done. Every object here holds only arrays and numbers (checkpoints pickle it).
+The search is split so it never holds the processor for long: :class:`RqpSearch` pauses SLSQP between
+any two evaluations of J (its reverse-communication core) and resumes it exactly where it stopped, so a
+caller spends a bounded slice per executive frame in the lowest-priority slot and applies the result
+when it is done. Every object here holds only arrays and numbers (checkpoints pickle it).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import minimize
+from scipy.optimize._slsqplib import slsqp as _slsqp  # reverse-communication core of SLSQP
 
 if TYPE_CHECKING:
     from fsw.filters.linear import LinearFilterBank as LinearFilterBankLike
@@ -81,6 +81,10 @@ class LinearWindow:
     def dim(self) -> int:
         return self.n + self.m
 
+    @property
+    def size(self) -> int:
+        return int(self.Z.shape[0])
+
     def nll(self, alphas: ArrayLike) -> np.ndarray:
         """J(α) of eq. 22 for each row of ``alphas`` (B, n + m), all rows filtered as one stack."""
         A = np.atleast_2d(np.asarray(alphas, dtype=float))
@@ -111,7 +115,7 @@ class LinearWindow:
         return J
 
 
-def central_gradient(model: LinearWindow, alpha: np.ndarray, bounds: RqpBounds) -> np.ndarray:
+def central_gradient(model: LikelihoodModel, alpha: np.ndarray, bounds: RqpBounds) -> np.ndarray:
     """∂J/∂α by central differences, the 2·dim(α) perturbed filters in one stacked pass."""
     d = alpha.size
     h = FD_STEP * (np.asarray(bounds.upper) - np.asarray(bounds.lower))
@@ -126,80 +130,131 @@ def central_gradient(model: LinearWindow, alpha: np.ndarray, bounds: RqpBounds) 
     return (J[:d] - J[d:]) / (2 * h)
 
 
-@dataclass
-class RqpSearch:
-    """One constrained maximum-likelihood search, resumable in slices (see the module docstring).
+class LikelihoodModel(Protocol):
+    """What a search needs of a filter: J (eq. 22) of its window for a stack of α rows."""
 
-    ``nll_before`` is J at the starting α (the filter's current parameters); ``best`` / ``nll_best``
-    the lowest J found so far; ``done`` once SLSQP reports convergence or failure, or the total
+    @property
+    def dim(self) -> int: ...
+
+    @property
+    def size(self) -> int: ...
+
+    def nll(self, alphas: ArrayLike) -> np.ndarray: ...
+
+
+class RqpSearch:
+    """One constrained maximum-likelihood search, resumable between any two evaluations.
+
+    It drives scipy's SLSQP through its reverse-communication core (``scipy.optimize._slsqplib``,
+    the routine ``minimize(method="SLSQP")`` itself loops over): the solver returns whenever it
+    needs J or its gradient, and its whole state — a dict of numbers and a few arrays — waits here
+    until the next slice. So a search can be spread over any number of frames without losing its
+    quasi-Newton curvature, and the result is the one an uninterrupted ``minimize`` would give. The
+    variables are u = ln α: Q and R pieces span decades and J is far better conditioned in their
+    logarithms; J is divided by the window length so the tolerance means the same for any P.
+
+    ``nll_before`` is J at the starting α (clipped into the box); ``best`` / ``nll_best`` the lowest
+    J evaluated so far; ``done`` once SLSQP stops (``status``: its exit mode, 0 = converged) or the
     iteration cap is spent."""
 
-    model: LinearWindow
-    bounds: RqpBounds
-    alpha0: np.ndarray
-    max_iter: int = 40
-    ftol: float = 1e-6
-    iterations: int = 0
-    evaluations: int = 0
-    done: bool = False
-    message: str = ""
-    best: np.ndarray = field(init=False)
-    nll_before: float = field(init=False)
-    nll_best: float = field(init=False)
-
-    def __post_init__(self) -> None:
-        self.alpha0 = self.bounds.clip(self.alpha0)
-        if self.alpha0.size != len(self.bounds.lower) or self.alpha0.size != self.model.dim:
+    def __init__(self, model: LikelihoodModel, bounds: RqpBounds, alpha0: ArrayLike, *, max_iter: int = 100,
+                 ftol: float = 1e-6):
+        self.model = model
+        self.bounds = bounds
+        a0 = bounds.clip(alpha0)
+        if a0.size != len(bounds.lower) or a0.size != model.dim:
             raise ValueError("RqpSearch: α, bounds and model disagree on the dimension")
-        self.best = self.alpha0.copy()
-        self.nll_before = self.nll_best = float(self.model.nll(self.alpha0)[0])
-        self.evaluations = 1
+        n = a0.size
+        self._scale = 1.0 / max(1, model.size)
+        self._xl = np.log(np.asarray(bounds.lower, dtype=float))
+        self._xu = np.log(np.asarray(bounds.upper, dtype=float))
+        self._x = np.log(a0)
+        # the solver's state and workspace, sized as scipy's own driver sizes them (no constraints)
+        self._state: dict[str, float | int] = {
+            "acc": float(ftol), "alpha": 0.0, "f0": 0.0, "gs": 0.0, "h1": 0.0, "h2": 0.0, "h3": 0.0,
+            "h4": 0.0, "t": 0.0, "t0": 0.0, "tol": 10.0 * float(ftol), "exact": 0, "inconsistent": 0,
+            "reset": 0, "iter": 0, "itermax": int(max_iter), "line": 0, "m": 0, "meq": 0, "mode": 0, "n": n,
+        }
+        self._indices = np.zeros(max(2 * n + 2, 1), dtype=np.int32)
+        self._buffer = np.zeros(n * (n + 1) // 2 + 8 * n * n + 35 * n + 28 + 2 * n * (n + 1))
+        self._mult = np.zeros(2 * n + 2)
+        self._C = np.zeros((1, n), order="F")
+        self._d = np.zeros(1)
+        self._g = np.zeros(n)
+        self._fx = 0.0
+        self._need = "fg"  # mode 0 on entry: the solver wants J and its gradient at the start
+        self.evaluations = 0  # α rows evaluated (a gradient costs 2·dim(α))
+        self.done = False
+        self.status = -1
+        self.best = a0.copy()
+        self.nll_before = self.nll_best = float("inf")
+        self.start = a0.copy()
 
-    def _fun(self, a: np.ndarray) -> float:
-        self.evaluations += 1
-        return float(self.model.nll(a)[0])
+    @property
+    def iterations(self) -> int:
+        return int(self._state["iter"])
 
-    def _jac(self, a: np.ndarray) -> np.ndarray:
-        self.evaluations += 2 * a.size
-        return central_gradient(self.model, np.asarray(a, dtype=float), self.bounds)
+    @property
+    def message(self) -> str:
+        return _EXIT.get(self.status, "running")
 
-    def step(self, iterations: int) -> bool:
-        """Run at most ``iterations`` SLSQP iterations from the best point so far; True when done."""
-        if self.done:
-            return True
-        k = max(1, min(int(iterations), self.max_iter - self.iterations))
-        # SLSQP works on u = ln α: Q and R pieces span decades and J is far better conditioned in
-        # their logarithms, which also lets a restarted slice (identity Hessian again) progress.
-        # J is a sum over the window: scaled to O(1) so ftol means the same for any P.
-        scale = 1.0 / max(1, self.model.Z.shape[0])
+    def _alpha(self) -> np.ndarray:
+        # SLSQP may step past a bound by an ulp or two: never evaluate outside the box
+        return self.bounds.clip(np.exp(np.clip(self._x, self._xl, self._xu)))
 
-        def fun(u: np.ndarray) -> float:
-            return scale * self._fun(np.exp(u))
-
-        def jac(u: np.ndarray) -> np.ndarray:
-            a = np.exp(u)
-            return scale * self._jac(a) * a
-
-        res = minimize(fun, np.log(self.best), jac=jac, method="SLSQP",
-                       bounds=list(zip(np.log(self.bounds.lower), np.log(self.bounds.upper))),
-                       options={"maxiter": k, "ftol": self.ftol})
-        self.iterations += int(res.nit) if res.nit else k
-        cand = self.bounds.clip(np.exp(res.x))
-        if np.all(np.isfinite(cand)):
-            j = float(self.model.nll(cand)[0])
+    def _evaluate(self) -> None:
+        a = self._alpha()
+        if "f" in self._need:
+            j = float(self.model.nll(a)[0])
             self.evaluations += 1
+            if not math.isfinite(j):
+                j = 1e300  # a non-finite J is a rejected step, never a crash
+            if self.nll_before == float("inf"):
+                self.nll_before = j
             if j < self.nll_best:
-                self.best, self.nll_best = cand, j
-        if res.status != 9 or self.iterations >= self.max_iter:  # 9: iteration limit of this slice
-            self.done = True
-            self.message = str(res.message)
+                self.best, self.nll_best = a, j
+            self._fx = self._scale * j
+            self._need = self._need.replace("f", "")
+            return
+        if "g" in self._need:
+            g = central_gradient(self.model, a, self.bounds) * a  # chain rule for u = ln α
+            self.evaluations += 2 * a.size
+            self._g = np.where(np.isfinite(g), self._scale * g, 0.0)
+        self._need = ""
+
+    def step(self, evaluations: int) -> bool:
+        """Advance by at most ``evaluations`` α rows (at least one J or gradient); True when done."""
+        spent = self.evaluations
+        while not self.done:
+            if self._need:
+                cost = 1 if "f" in self._need else 2 * self._x.size
+                if self.evaluations > spent and self.evaluations + cost > spent + evaluations:
+                    break
+                self._evaluate()
+                continue
+            _slsqp(self._state, self._fx, self._g, self._C, self._d, self._x, self._mult, self._xl, self._xu,
+                   self._buffer, self._indices)
+            mode = int(self._state["mode"])
+            if mode == 1:
+                self._need = "f"
+            elif mode == -1:
+                self._need = "g"
+            else:
+                self.done, self.status = True, mode
         return self.done
 
-    def run(self, slice_iterations: int = 5) -> np.ndarray:
-        """Run to the end (bounded by ``max_iter``); returns the best α."""
-        while not self.step(slice_iterations):
+    def run(self, slice_evaluations: int = 50) -> np.ndarray:
+        """Run to the end (bounded by the iteration cap); returns the best α."""
+        while not self.step(slice_evaluations):
             pass
         return self.best
+
+
+_EXIT = {0: "converged", 1: "running", -1: "running", 2: "more equality constraints than variables",
+         3: "more than 3*n iterations in LSQ subproblem", 4: "inequality constraints incompatible",
+         5: "singular matrix E in LSQ subproblem", 6: "singular matrix C in LSQ subproblem",
+         7: "rank-deficient equality constraint subproblem", 8: "positive directional derivative for linesearch",
+         9: "iteration limit reached"}
 
 
 @dataclass(frozen=True)
@@ -224,21 +279,21 @@ class LinearBankAdaptation:
     Call :meth:`before` before the bank takes a measurement and :meth:`after` once it has (with the
     gating weights after it). Every ``every`` measurements the filter of largest weight is re-tuned
     on the window just closed, from its state before the window (kept in a snapshot: the window's
-    measurements sit in a bounded buffer). The search runs ``slice_iterations`` SLSQP iterations per
+    measurements sit in a bounded buffer). The search evaluates at most ``slice_evaluations`` α rows per
     measurement, so it spans measurements and never delays one; when it ends, the new α goes to that
     filter and, as in §V.D, every filter restarts from that filter's estimate with covariance
     ``P_restart`` (None: states are kept). A result within ``min_change`` (relative, every
     component) of the current α is not applied ("the update would not be necessary")."""
 
     def __init__(self, bank: "LinearFilterBankLike", bounds: RqpBounds, every: int, *,
-                 slice_iterations: int = 5, max_iter: int = 40, min_change: float = 0.05,
+                 slice_evaluations: int = 20, max_iter: int = 100, min_change: float = 0.05,
                  P_restart: ArrayLike | None = None):
         if every < 2:
             raise ValueError("RQP window must hold at least 2 measurements")
         self.bank = bank
         self.bounds = bounds
         self.every = int(every)
-        self.slice_iterations = int(slice_iterations)
+        self.slice_evaluations = int(slice_evaluations)
         self.max_iter = int(max_iter)
         self.min_change = float(min_change)
         self.P_restart = None if P_restart is None else np.array(P_restart, dtype=float)
@@ -259,7 +314,7 @@ class LinearBankAdaptation:
     def after(self, z: ArrayLike, weights: ArrayLike, t: float) -> RqpOutcome | None:
         self.window.append(np.array(z, dtype=float))
         outcome = None
-        if self.search is not None and self.search.step(self.slice_iterations):
+        if self.search is not None and self.search.step(self.slice_evaluations):
             outcome = self._apply(t)
         if len(self.window) >= self.every:
             if self.search is None and self._snapshot is not None:

@@ -3,8 +3,8 @@ adaptation of the best filter (§IV, eqs. 21–23) every 200 s, starting from th
 
 Each seed flies 1000 measurements of the 2-state tracking example with α* (the paper's "actual
 solution") as the truth and filters them twice with navbank's linear bank gated by ``moe`` (η = 1,
-as in the paper): once with :class:`fsw.filters.rqp.LinearBankAdaptation` (window 200, SLSQP in
-slices of 5 iterations per measurement, §V.D's restart of every filter from the best estimate with
+as in the paper): once with :class:`fsw.filters.rqp.LinearBankAdaptation` (window 200, SLSQP paused
+after at most 20 evaluations per measurement, §V.D's restart of every filter from the best estimate with
 P₀⁻) and once without. Numbers (medians over seeds): the filter chosen and the α found at the first
 adaptation against the paper's, the distance of the adapted α to α* after each adaptation, J (eq. 22)
 before/after, and the RMS error of the best filter's estimate before and after adaptation against the
@@ -23,6 +23,8 @@ from fsw.filters.linear import LinearFilterBank
 from fsw.filters.rqp import LinearBankAdaptation, RqpBounds, RqpOutcome
 from fsw.gating import make_network
 from sim.scenarios import chaer_tracking as ct
+from tools.validation.section import Section, claims_lines, figure_links, table
+from tools.validation.claims import Claim
 
 NAMES = tuple(f"KF{i}" for i in range(1, 6))
 #: Eq. 23's boxes for this example: Q in [1e-3, 100] (Table IV's q = 0 becomes the floor), R in [0.1, 100].
@@ -69,8 +71,10 @@ def fly(run: ct.TrackingRun, adapt: bool) -> FlightLog:
 
 
 def alpha_distance(alpha: np.ndarray) -> float:
-    """Distance to α* in log space (every component counts by its ratio, not its size)."""
-    return float(np.linalg.norm(np.log(np.maximum(alpha, 1e-3) / np.asarray(ct.EXPERIMENT_4_TRUTH))))
+    """‖(α − α*) / α*‖: every component counts by its relative error (a component driven to its
+    floor counts 1, not the log of the floor)."""
+    truth = np.asarray(ct.EXPERIMENT_4_TRUTH)
+    return float(np.linalg.norm((np.asarray(alpha) - truth) / truth))
 
 
 @dataclass
@@ -97,7 +101,7 @@ def _block_rms(err: np.ndarray, col: int) -> list[float]:
     return [float(np.sqrt(np.mean(err[b:b + P, col] ** 2))) for b in range(0, len(err), P)]
 
 
-def run_experiment_4(runs: int = 20, length: int = LENGTH, example_seed: int = 0) -> Experiment4Results:
+def run_experiment_4(runs: int = 12, length: int = LENGTH, example_seed: int = 0) -> Experiment4Results:
     out = Experiment4Results(runs=runs)
     for seed in range(runs):
         run = ct.experiment_4(np.random.default_rng(1000 + seed), length=length)
@@ -146,3 +150,90 @@ def plot_experiment_4(results: Experiment4Results, path: str | Path) -> Path:
         for c in range(ct.EXPERIMENT_4_PERIOD, len(k), ct.EXPERIMENT_4_PERIOD):
             ax.axvline(c + 0.5, color="0.5", ls="--", lw=0.8)
     return save(fig, path)
+
+
+def _fmt(a: np.ndarray | tuple[float, ...] | list[float]) -> str:
+    return "[" + " ".join(f"{x:.2f}" for x in a) + "]"
+
+
+def experiment4_section(results: Experiment4Results, figure: Path, doc_dir: Path) -> Section:
+    """The validation-report section of Chaer et al. 1997 §V.D."""
+    r = results
+    s = Section("Chaer et al. 1997 §V.D: RQP adaptation of the best filter on `chaer-tracking`")
+    first = r.median_first_alpha()
+    D = np.array(r.distance)  # (runs, 1 + adaptations)
+    nll = np.array(r.nll)  # (runs, adaptations, 2)
+    ra, rf = np.median(r.rms_adapted, axis=0), np.median(r.rms_fixed, axis=0)
+    va, vf = np.median(r.vrms_adapted, axis=0), np.median(r.vrms_fixed, axis=0)
+    kf1 = sum(f == "KF1" for f in r.first_filter)
+    s.lines += [
+        "Experiment 4 of Chaer et al. 1997 (§IV eqs. 21–23, §V.D): the Table IV bank, gated by `moe` (η = 1), "
+        "and every 200 s the filter of largest weight re-tuned by maximising the likelihood (eq. 22) of the last "
+        "200 measurements over α = [q1 q2 r1 r2] inside eq. 23's boxes (Q ∈ [10⁻³, 100], R ∈ [0.1, 100]), from "
+        "its current α, with scipy's SLSQP (`fsw.filters.rqp`); then, as §V.D describes, every filter restarts "
+        "from that filter's estimate with P₀⁻. The truth uses the paper's \"actual solution\" α* (the paper does "
+        "not state the generating parameters). The search is paused after at most 20 likelihood evaluations per "
+        f"measurement and resumed at the next (SLSQP's reverse-communication core keeps its state), so it spans "
+        f"measurements instead of delaying one. Medians over {r.runs} runs of "
+        f"{len(r.rms_adapted[0]) * ct.EXPERIMENT_4_PERIOD} measurements; the unadapted bank filters the same "
+        "measurements.",
+        "",
+        "Computed by `navbank validation-report` itself (about 30 s).",
+        "",
+    ]
+    s.lines += table(["", "q1", "q2", "r1", "r2"], [
+        ["α* (truth)", *(f"{x:.2f}" for x in ct.EXPERIMENT_4_TRUTH)],
+        ["KF 1 before (Table IV)", *(f"{x:.2f}" for x in ct.TABLE_IV[0])],
+        ["first adaptation, paper", *(f"{x:.2f}" for x in ct.EXPERIMENT_4_PAPER_FIRST)],
+        ["first adaptation, navbank (median)", *(f"{x:.2f}" for x in first)],
+    ])
+    s.lines += ["", f"q1 went to its floor (10⁻³) in {sum(a[0] < 0.01 for a in r.first_alpha)} of {r.runs} first "
+                "adaptations: with range and velocity both measured, 200 measurements hardly tell range process "
+                "noise from range measurement noise, and the likelihood is flat along q1.", ""]
+    s.lines += ["After each adaptation (t = 200, 400, 600, 800 s; the result is applied when the search ends, "
+                "a few measurements later):", ""]
+    rows = [["before", f"{np.median(D[:, 0]):.2f}", "", "", f"{ra[0]:.2f}", f"{rf[0]:.2f}", f"{va[0]:.2f}",
+             f"{vf[0]:.2f}"]]
+    for j in range(1, D.shape[1]):
+        rows.append([f"adaptation {j}", f"{np.median(D[:, j]):.2f}", f"{np.median(nll[:, j - 1, 0]):.1f}",
+                     f"{np.median(nll[:, j - 1, 1]):.1f}",
+                     f"{ra[j]:.2f}" if j < len(ra) else "", f"{rf[j]:.2f}" if j < len(rf) else "",
+                     f"{va[j]:.2f}" if j < len(va) else "", f"{vf[j]:.2f}" if j < len(vf) else ""])
+    s.lines += table(["", "‖(α − α*)/α*‖ of the tuned filter", "J before", "J after",
+                      "range RMS [m], adapted", "no adaptation", "velocity RMS [m/s], adapted", "no adaptation"],
+                     rows)
+    cpu = float(np.median(r.cpu_per_adaptation_s))
+    s.lines += ["", f"Cost: median {cpu * 1e3:.0f} ms CPU per adaptation (SLSQP iterations: median "
+                f"{np.median(r.iterations):g}, at most {max(r.iterations)}), spread over the measurements that "
+                "follow the window.", ""]
+    later = slice(1, None)
+    s.claims = [
+        Claim("s3-rqp-best", "the gating network prefers KF 1 at the first adaptation (paper: KF 1)",
+              kf1 >= 0.9 * r.runs, f"KF 1 in {kf1} of {r.runs} runs"),
+        Claim("s3-rqp-toward", "the adapted parameters move toward the true ones",
+              bool(np.median(D[:, 1]) < np.median(D[:, 0]) and np.median(D[:, -1]) < np.median(D[:, 0])),
+              f"‖(α − α*)/α*‖: {np.median(D[:, 0]):.2f} before, {np.median(D[:, 1]):.2f} after the first, "
+              f"{np.median(D[:, -1]):.2f} after the last adaptation (paper's first: "
+              f"{alpha_distance(np.array(ct.EXPERIMENT_4_PAPER_FIRST)):.2f})"),
+        Claim("s3-rqp-error", "the estimation error drops after adaptation",
+              bool(np.mean(ra[later]) < np.mean(rf[later]) and np.mean(va[later]) <= np.mean(vf[later])),
+              f"range RMS after t = 200 s {np.mean(ra[later]):.2f} m adapted vs {np.mean(rf[later]):.2f} m not; "
+              f"velocity {np.mean(va[later]):.2f} vs {np.mean(vf[later]):.2f} m/s"),
+        Claim("s3-rqp-likelihood", "every adaptation raises the window's likelihood",
+              bool(np.all(nll[:, :, 1] <= nll[:, :, 0] + 1e-9)),
+              f"median J {np.median(nll[:, 0, 0]):.1f} → {np.median(nll[:, 0, 1]):.1f} at the first"),
+    ]
+    s.lines += ["Findings:", "", *claims_lines(s.claims), "", *figure_links([figure], doc_dir), ""]
+    return s
+
+
+EXPERIMENT4_DISCUSSION = """\
+**Differences.** Chaer et al. 1997 show one run, whose first adaptation lands within 10–30 % of α* in every
+component (relative distance 0.30). navbank's runs scatter more widely (median relative distance 0.7–1.0 after
+each adaptation): 200 measurements constrain the range process noise q1 weakly, and the maximum-likelihood α of
+one window is itself that far from α*. The median of the first adaptations, though, is as close to α* as the
+paper's single result, and the window likelihood, the distance to α* and the estimation error all improve. The
+error improvement is modest (about 5 % in range, 3 % in velocity) because KF 1's Table IV parameters are already
+within a factor of 5 of α* and the Kalman gain is insensitive to such a mis-tuning. The weight history matches
+Fig. 10: KF 1 takes and keeps a weight near 1 after the first adaptation. The paper does not say to what the
+covariances are re-initialised; navbank uses P₀⁻."""
