@@ -99,7 +99,7 @@ def test_each_slice_is_bounded_and_slicing_changes_nothing():
                    jac=lambda u: central_gradient(w, np.exp(u), b) * np.exp(u) / 200, method="SLSQP",
                    bounds=list(zip(np.log(b.lower), np.log(b.upper))), options={"ftol": 1e-6, "maxiter": 100})
     assert s.status == ref.status == 0
-    np.testing.assert_allclose(np.log(s.best), ref.x, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(np.log(s.best), ref.x, rtol=1e-8)  # exp/log round trips only
 
 
 def test_search_state_pickles_mid_run():

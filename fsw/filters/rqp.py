@@ -31,7 +31,7 @@ from scipy.optimize._slsqplib import slsqp as _slsqp  # reverse-communication co
 if TYPE_CHECKING:
     from fsw.filters.linear import LinearFilterBank as LinearFilterBankLike
 
-#: Relative step of the central differences (of the box width, so bounds are never crossed by much).
+#: Relative step of the central differences.
 FD_STEP = 1e-4
 
 
@@ -115,18 +115,23 @@ class LinearWindow:
         return J
 
 
+def central_points(alpha: np.ndarray, bounds: RqpBounds) -> tuple[np.ndarray, np.ndarray]:
+    """The 2·dim(α) points of a central difference at α (the +h rows, then the −h rows; a −h step
+    below the box floor is moved up, keeping the width 2h) and the steps h."""
+    d = alpha.size
+    h = FD_STEP * np.asarray(alpha, dtype=float)  # relative steps: α spans decades
+    pts = np.repeat(alpha[None, :], 2 * d, axis=0)
+    minus = np.maximum(alpha - h, np.asarray(bounds.lower, dtype=float) * (1.0 - FD_STEP))
+    pts[range(d, 2 * d), range(d)] = minus
+    pts[range(d), range(d)] = minus + 2 * h
+    return pts, h
+
+
 def central_gradient(model: LikelihoodModel, alpha: np.ndarray, bounds: RqpBounds) -> np.ndarray:
     """∂J/∂α by central differences, the 2·dim(α) perturbed filters in one stacked pass."""
-    d = alpha.size
-    h = FD_STEP * (np.asarray(bounds.upper) - np.asarray(bounds.lower))
-    pts = np.repeat(alpha[None, :], 2 * d, axis=0)
-    pts[range(d), range(d)] += h
-    pts[range(d, 2 * d), range(d)] -= h
-    # a step outside the box could make Q or R indefinite: shift it inside, keep the width
-    lo = np.asarray(bounds.lower)
-    pts[range(d, 2 * d), range(d)] = np.maximum(pts[range(d, 2 * d), range(d)], lo)
-    pts[range(d), range(d)] = pts[range(d, 2 * d), range(d)] + 2 * h
+    pts, h = central_points(alpha, bounds)
     J = model.nll(pts)
+    d = alpha.size
     return (J[:d] - J[d:]) / (2 * h)
 
 
@@ -202,36 +207,11 @@ class RqpSearch:
         # SLSQP may step past a bound by an ulp or two: never evaluate outside the box
         return self.bounds.clip(np.exp(np.clip(self._x, self._xl, self._xu)))
 
-    def _evaluate(self) -> None:
-        a = self._alpha()
-        if "f" in self._need:
-            j = float(self.model.nll(a)[0])
-            self.evaluations += 1
-            if not math.isfinite(j):
-                j = 1e300  # a non-finite J is a rejected step, never a crash
-            if self.nll_before == float("inf"):
-                self.nll_before = j
-            if j < self.nll_best:
-                self.best, self.nll_best = a, j
-            self._fx = self._scale * j
-            self._need = self._need.replace("f", "")
-            return
-        if "g" in self._need:
-            g = central_gradient(self.model, a, self.bounds) * a  # chain rule for u = ln α
-            self.evaluations += 2 * a.size
-            self._g = np.where(np.isfinite(g), self._scale * g, 0.0)
-        self._need = ""
-
-    def step(self, evaluations: int) -> bool:
-        """Advance by at most ``evaluations`` α rows (at least one J or gradient); True when done."""
-        spent = self.evaluations
-        while not self.done:
-            if self._need:
-                cost = 1 if "f" in self._need else 2 * self._x.size
-                if self.evaluations > spent and self.evaluations + cost > spent + evaluations:
-                    break
-                self._evaluate()
-                continue
+    def request(self) -> np.ndarray | None:
+        """The α rows whose J the solver needs next — one row for J, 2·dim(α) for the central
+        differences of its gradient (see :func:`central_points`) — or None once the search is done.
+        Answer with :meth:`provide`; a caller may take as long as it likes in between."""
+        while not self._need and not self.done:
             _slsqp(self._state, self._fx, self._g, self._C, self._d, self._x, self._mult, self._xl, self._xu,
                    self._buffer, self._indices)
             mode = int(self._state["mode"])
@@ -241,7 +221,42 @@ class RqpSearch:
                 self._need = "g"
             else:
                 self.done, self.status = True, mode
-        return self.done
+        if self.done:
+            return None
+        a = self._alpha()
+        return a[None, :] if "f" in self._need else central_points(a, self.bounds)[0]
+
+    def provide(self, J: ArrayLike) -> None:
+        """J of the rows :meth:`request` returned (non-finite values are rejected steps)."""
+        J = np.asarray(J, dtype=float)
+        a = self._alpha()
+        self.evaluations += J.size
+        if "f" in self._need:
+            j = float(J[0]) if math.isfinite(float(J[0])) else 1e300
+            if self.nll_before == float("inf"):
+                self.nll_before = j
+            if j < self.nll_best:
+                self.best, self.nll_best = a, j
+            self._fx = self._scale * j
+            self._need = self._need.replace("f", "")
+            return
+        h = central_points(a, self.bounds)[1]
+        d = a.size
+        g = (J[:d] - J[d:]) / (2 * h) * a  # chain rule for u = ln α
+        self._g = np.where(np.isfinite(g), self._scale * g, 0.0)
+        self._need = ""
+
+    def step(self, evaluations: int) -> bool:
+        """Advance by at most ``evaluations`` α rows (at least one request); True when done."""
+        spent = 0
+        while True:
+            rows = self.request()
+            if rows is None:
+                return True
+            if spent and spent + len(rows) > evaluations:
+                return False
+            self.provide(self.model.nll(rows))
+            spent += len(rows)
 
     def run(self, slice_evaluations: int = 50) -> np.ndarray:
         """Run to the end (bounded by the iteration cap); returns the best α."""

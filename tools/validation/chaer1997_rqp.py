@@ -125,7 +125,7 @@ def run_experiment_4(runs: int = 12, length: int = LENGTH, example_seed: int = 0
     return out
 
 
-def plot_experiment_4(results: Experiment4Results, path: str | Path) -> Path:
+def plot_experiment_4(results: Experiment4Results, path: Path) -> Path:
     """Gating weights with and without adaptation (Fig. 10 analogue) and the best filter's range
     error (Fig. 13 analogue), one seed."""
     from ground.report.figure import new_figure, save
