@@ -85,3 +85,26 @@ def test_set_rqp_telecommand():
     assert core.rqp.busy or core.rqp.adaptations > 0  # a 12-measurement window closed: a search started
     assert core.command(m.Telecommand(id="4", command="set-rqp", param="enabled", value=0.0)).ok
     assert not core.rqp.enabled and core.rqp.window == []
+
+
+@pytest.mark.slow
+def test_navbank_run_records_adaptations_and_the_report_shows_them(tmp_path, short_scenario):
+    """Real processes over Zenoh: the adaptations reach the MCAP and the run report."""
+    import subprocess
+    import sys
+
+    from ground.mcap_io.reader import read_messages
+
+    scen = tmp_path / "rqp.yaml"
+    scen.write_text(short_scenario(2.0) + "  rqp: {enabled: true, every: 30}\n")
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "tools.cli", "run", "--scenario", str(scen), "--out", str(out),
+                           "--quiet"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    recs = [r.message for r in read_messages(out / "run.mcap", topics=["/fsw/rqp"])]
+    assert recs and all(isinstance(r, m.RqpReport) for r in recs)
+    rep = subprocess.run([sys.executable, "-m", "tools.cli", "report", str(out)], capture_output=True, text=True,
+                         timeout=300)
+    assert rep.returncode == 0, rep.stderr + rep.stdout
+    texts = [p.read_text() for p in out.rglob("*.md")]
+    assert any("## RQP parameter adaptation" in t and recs[0].filter in t for t in texts)
