@@ -108,3 +108,34 @@ def test_navbank_run_records_adaptations_and_the_report_shows_them(tmp_path, sho
     assert rep.returncode == 0, rep.stderr + rep.stdout
     texts = [p.read_text() for p in out.rglob("*.md")]
     assert any("## RQP parameter adaptation" in t and recs[0].filter in t for t in texts)
+
+
+def test_a_checkpoint_taken_mid_search_resumes_it_exactly(tmp_path):
+    """Work-unit mode: a core restored from a checkpoint taken while a search is in flight emits
+    what the uninterrupted core emits, adaptations included, byte for byte."""
+    from fsw.core import checkpoint as ck
+    from fsw.interface import codec
+
+    data = typed.encode(_config(days=1.0, min_change=0.0))
+    data["fsw"]["budget"] = {"mode": "work-units"}
+    resolved, meas = _measurements(typed.decode(ScenarioConfig, data))
+    out: list = []
+    core = FswCore(resolved.fsw, lambda t, msg: out.append((t, msg)), run_id="r")
+    core.start()
+    k = 0
+    while not (core.rqp.busy and core.rqp._eval is not None):  # mid-evaluation, mid-search
+        core.ingest(meas[k])
+        k += 1
+    path = tmp_path / "fsw.ckpt"
+    ck.write(path, ck.Checkpoint(core, core.taken, {}))
+    at = len(out)
+    resumed: list = []
+    restored = ck.read(path, resolved.fsw, "r", lambda t, msg: resumed.append((t, msg)))
+    for x in meas[k:]:
+        core.ingest(x)
+        restored.core.ingest(x)
+    core.finish()
+    restored.core.finish()
+    tail = [(t, codec.to_json(msg)) for t, msg in out[at:]]
+    assert any(t == topics.FSW_RQP for t, _ in tail)
+    assert [(t, codec.to_json(msg)) for t, msg in resumed] == tail

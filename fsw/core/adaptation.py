@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fsw.executive.config import BudgetConfig
 from fsw.filters.bank import FilterBank
 from fsw.filters.errors import MeasurementRejected
 from fsw.filters.rqp import RqpBounds, RqpSearch
@@ -59,7 +60,7 @@ class Adapted:
     window: int
     iterations: int
     evaluations: int
-    cpu_s: float
+    cost: float
     applied: bool
     status: str
 
@@ -67,8 +68,12 @@ class Adapted:
 class OnboardRqp:
     """The adaptation's state in the FSW core: window, snapshot, search in progress."""
 
-    def __init__(self, config: RqpConfig):
+    def __init__(self, config: RqpConfig, budget: BudgetConfig):
         self.config = config
+        # what a slice is charged, as the executive charges it: declared work units, or measured
+        # CPU x cpu_scale (so the telemetry of a work-unit run is reproducible)
+        self._work_units = budget.mode == "work-units"
+        self._cpu_scale = budget.cpu_scale
         self.enabled = config.enabled
         self.every = config.every
         self.window: list[Measurement] = []
@@ -78,9 +83,9 @@ class OnboardRqp:
         self._target_window: tuple[Measurement, ...] = ()
         self._base: FilterBank | None = None
         self._eval: _Evaluation | None = None
-        self._cpu = 0.0
+        self._cost = 0.0
         self.adaptations = 0
-        self.cpu_total_s = 0.0
+        self.cost_total = 0.0
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -131,7 +136,7 @@ class OnboardRqp:
         self._search = RqpSearch(_Window(len(self.params), len(self.window)), RqpBounds(lo, hi), alpha0,
                                  max_iter=self.config.max_iter, ftol=self.config.ftol)
         self._eval = None
-        self._cpu = 0.0
+        self._cost = 0.0
 
     # -- one slice (an executive stage) --------------------------------------------------------
     def slice(self, bank: FilterBank, t: float) -> Adapted | None:
@@ -154,7 +159,7 @@ class OnboardRqp:
                 assert self._eval.J is not None
                 search.provide(self._eval.J)
                 self._eval = None
-        self._cpu += time.thread_time() - c0
+        self._cost += self.config.slice_cost if self._work_units else (time.thread_time() - c0) * self._cpu_scale
         if not done and search.request() is not None:
             return None
         return self._finish(bank, t)
@@ -200,10 +205,10 @@ class OnboardRqp:
             for p, v in zip(self.params, after):
                 bank.set_param(self._target, p, v)
         self.adaptations += 1
-        self.cpu_total_s += self._cpu
+        self.cost_total += self._cost
         out = Adapted(t=float(t), filter=self._target, params=self.params, alpha_before=before, alpha_after=after,
                       nll_before=search.nll_before, nll_after=search.nll_best, window=len(self._target_window),
-                      iterations=search.iterations, evaluations=search.evaluations, cpu_s=self._cpu, applied=applied,
+                      iterations=search.iterations, evaluations=search.evaluations, cost=self._cost, applied=applied,
                       status=search.message)
         self._search, self._base, self._eval, self._target_window = None, None, None, ()
         return out
@@ -213,7 +218,7 @@ def report_message(a: Adapted) -> m.RqpReport:
     """The ICD telemetry of a finished adaptation."""
     return m.RqpReport(t_s=a.t, timestamp=stamp(a.t), filter=a.filter, params=a.params, alpha_before=a.alpha_before,
                        alpha_after=a.alpha_after, nll_before=a.nll_before, nll_after=a.nll_after, window=a.window,
-                       iterations=a.iterations, evaluations=a.evaluations, cpu_s=a.cpu_s, applied=a.applied,
+                       iterations=a.iterations, evaluations=a.evaluations, cost=a.cost, applied=a.applied,
                        status=a.status)
 
 

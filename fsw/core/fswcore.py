@@ -88,7 +88,7 @@ class FswCore:
         self.frames_reported = 0
         self.max_utilisation = 0.0
         #: RQP adaptation of the best filter (Chaer et al. 1997 §IV); idle unless enabled
-        self.rqp = OnboardRqp(config.rqp)
+        self.rqp = OnboardRqp(config.rqp, config.budget)
 
     # -- checkpoints (fsw.core.checkpoint) ------------------------------------------------------
     def __getstate__(self) -> dict[str, object]:

@@ -231,7 +231,8 @@ class RqpReport:
     window: int = spec(doc="measurements in the window (P)", ge=0)
     iterations: int = spec(doc="SLSQP iterations", ge=0)
     evaluations: int = spec(doc="J evaluations (α rows; a gradient costs 2·dim α)", ge=0)
-    cpu_s: float = spec(doc="host thread CPU time the adaptation used, all slices", unit="s", ge=0.0)
+    cost: float = spec(doc="budget its slices were charged, all together: scaled CPU seconds (mode cpu) or work "
+                       "units (mode work-units), as the executive charges them", ge=0.0)
     applied: bool = spec(doc="the new α was applied (false: within the minimum change of the old)")
     status: str = spec(max_length=NAME_CHARS, doc="how SLSQP ended")
 

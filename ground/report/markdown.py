@@ -108,9 +108,11 @@ def _rqp_lines(data: RunData) -> list[str]:
     """Each RQP adaptation of the best filter (Chaer et al. 1997 §IV): α and J before and after."""
     if not data.rqp:
         return []
-    cpu = sum(r.cpu_s for r in data.rqp)
+    cost = sum(r.cost for r in data.rqp)
+    unit = "work units" if data.budget is not None and data.budget.mode == "work-units" else "s of (scaled) CPU"
     lines = ["## RQP parameter adaptation", "",
-             f"{len(data.rqp)} adaptations, {sum(r.applied for r in data.rqp)} applied; {cpu:.2f} s of host CPU in all. "
+             f"{len(data.rqp)} adaptations, {sum(r.applied for r in data.rqp)} applied; they were charged {cost:.3g} {unit} "
+             "of the frame budget in all. "
              "J is the negative log-likelihood of the window (eq. 22).", ""]
     rows = [[_num(data.day(r.t_s), ".2f"), r.filter,
              ", ".join(f"{p} {_num(a, '.3g')} → {_num(b, '.3g')}" for p, a, b in zip(r.params, r.alpha_before, r.alpha_after)),
