@@ -27,7 +27,11 @@ def test_adaptation_runs_in_the_budget_and_reports_what_it_did():
     assert reports and all(isinstance(r, m.RqpReport) for r in reports)
     for r in reports:
         assert r.nll_after <= r.nll_before  # the search never applies a worse α
-        assert r.window == 30 and r.params == ("sigma_scale.range", "sigma_scale.doppler")
+        assert r.window == 30 and r.params
+        # only the noise scales of kinds the tuned filter processes are searched
+        want = {"radio": ("sigma_scale.range", "sigma_scale.doppler"), "optical": ("sigma_scale.optical",),
+                "fused": ("sigma_scale.range", "sigma_scale.doppler", "sigma_scale.optical")}
+        assert r.params == want[r.filter]
         assert all(0.2 <= a <= 5.0 for a in r.alpha_after)  # inside the eq. 23 boxes
     assert any(r.applied for r in reports)
     budget = [msg for tp, msg in res.messages if tp == topics.FSW_BUDGET]

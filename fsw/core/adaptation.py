@@ -29,7 +29,7 @@ from fsw.executive.config import BudgetConfig
 from fsw.filters.bank import FilterBank
 from fsw.filters.errors import MeasurementRejected
 from fsw.filters.rqp import RqpBounds, RqpSearch
-from fsw.filters.rqp_config import RqpConfig
+from fsw.filters.rqp_config import RqpConfig, RqpParam
 from fsw.core.telemetry import stamp
 from fsw.interface import messages as m
 from fsw.interface.messages import Measurement
@@ -87,9 +87,12 @@ class OnboardRqp:
         self.adaptations = 0
         self.cost_total = 0.0
 
+        self._params: tuple[RqpParam, ...] = ()
+
     @property
     def params(self) -> tuple[str, ...]:
-        return tuple(p.name for p in self.config.params)
+        """The components of α of the search in progress."""
+        return tuple(p.name for p in self._params)
 
     @property
     def busy(self) -> bool:
@@ -123,14 +126,19 @@ class OnboardRqp:
         self.window, self._snapshot = [], None
 
     def _start(self, bank: FilterBank, best: str) -> None:
+        # a measurement-noise scale of a kind the filter does not process leaves J flat: not searched
+        self._params = tuple(p for p in self.config.params if not p.name.startswith("sigma_scale.")
+                             or bank.processes(best, p.name.split(".", 1)[1]))
+        if not self._params:
+            return
         base = self._snapshot
         assert base is not None
         base.set_enabled(best, True)
         for name in base.names:  # re-processing concerns the tuned filter only
             if name != best:
                 base.set_enabled(name, False)
-        lo = tuple(p.lower for p in self.config.params)
-        hi = tuple(p.upper for p in self.config.params)
+        lo = tuple(p.lower for p in self._params)
+        hi = tuple(p.upper for p in self._params)
         alpha0 = np.array([bank.get_param(best, p) for p in self.params])
         self._base, self._target, self._target_window = base, best, tuple(self.window)
         self._search = RqpSearch(_Window(len(self.params), len(self.window)), RqpBounds(lo, hi), alpha0,

@@ -151,6 +151,11 @@ class FilterBank:
         else:
             raise ValueError(f"unknown parameter {param!r}")
 
+    def processes(self, name: str, kind: str) -> bool:
+        """Whether filter ``name`` updates with measurements of ``kind``."""
+        mask = self._process_masks.get(kind)
+        return bool(mask is not None and mask[self.index(name)])
+
     #: Parameters :meth:`get_param` reads (what parameter adaptation may tune).
     TUNABLE_PREFIXES = ("sigma_scale.", "velocity_noise_psd", "clock.q_")
 

@@ -24,7 +24,8 @@ class RqpParam:
 
 
 def _default_params() -> tuple[RqpParam, ...]:
-    return (RqpParam("sigma_scale.range", 0.2, 5.0), RqpParam("sigma_scale.doppler", 0.2, 5.0))
+    return (RqpParam("sigma_scale.range", 0.2, 5.0), RqpParam("sigma_scale.doppler", 0.2, 5.0),
+            RqpParam("sigma_scale.optical", 0.2, 5.0))
 
 
 @dataclass(frozen=True)
@@ -34,7 +35,8 @@ class RqpConfig:
     enabled: bool = spec(False, doc="run the adaptation (the set-rqp telecommand switches it at run time)")
     every: int = spec(40, doc="P: measurements per window; the best filter is re-tuned on each closed window", ge=2, le=1000)
     params: tuple[RqpParam, ...] = spec(default_factory=_default_params,
-                                        doc="the components of α with their boxes", max_items=8)
+                                        doc="the components of α with their boxes; a filter is searched over those that "
+                                        "concern it (the sigma_scale of kinds it does not process are left out)", max_items=8)
     slice_steps: int = spec(4, doc="filter steps (one measurement re-processed for one α) per executive slice", ge=1)
     slice_cost: float = spec(2.0, doc="declared cost of one slice (mode work-units)", unit="work unit", ge=0.0)
     max_iter: int = spec(20, doc="SLSQP iteration cap per adaptation", ge=1)
