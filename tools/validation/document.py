@@ -577,6 +577,12 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
     sections.append(chaer1997_rqp.experiment4_section(
         exp4, chaer1997_rqp.plot_experiment_4(exp4, fig_dir / "chaer1997-experiment4-rqp.png"), out_dir))
     sections[-1].discussion = chaer1997_rqp.EXPERIMENT4_DISCUSSION
+    from tools.validation import hanlon2000
+
+    hm = hanlon2000.run_hanlon2000()
+    sections.append(hanlon2000.hanlon2000_section(hm, hanlon2000.plot_hanlon2000(hm, fig_dir / "hanlon2000-identification.png"),
+                                                  out_dir))
+    sections[-1].discussion = hanlon2000.HANLON2000_DISCUSSION
     if cruise:
         from tools.validation.chaer1998 import chaer1998_section
 
