@@ -17,6 +17,7 @@ from fsw.fdir.families import FilterFamily
 from fsw.filters import kinds
 from fsw.filters.config import BankConfig
 from fsw.filters.presets import nominal_bank
+from fsw.filters.rqp_config import RqpConfig
 from fsw.gating.registry import NETWORKS, params_type
 from fsw.interface import typed
 from fsw.interface.typed import DecodeError, spec
@@ -135,6 +136,7 @@ class FswConfig:
     reorder_window: int = spec(32, doc="out-of-order measurements within this many sequence numbers are re-ordered", ge=0)
     intake: IntakeConfig = spec(default_factory=IntakeConfig, doc="measurement plausibility limits")
     checkpoint: CheckpointConfig = spec(default_factory=CheckpointConfig, doc="checkpoint cadence of a supervised run")
+    rqp: RqpConfig = spec(default_factory=RqpConfig, doc="RQP adaptation of the best filter's noise parameters")
     initial_state: InitialState | None = spec(
         None, doc="a-priori state; none: the launcher derives it from the scenario (design trajectory + a-priori error draw)"
     )

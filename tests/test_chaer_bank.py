@@ -99,8 +99,9 @@ def test_paper_tables():
     assert list(ct.TABLE_II_TRUTH) == [16.0] * 4
     assert ct.bank_parameters(3)[3].tolist() == [5.0, 25.0, 2.0, 25.0]
     assert ct.bank_parameters(3)[4].tolist() == [1.0, 1.0, 2.0, 50.0]
+    assert ct.bank_parameters(4)[1].tolist() == [0.0, 0.0, 5.0, 5.0]  # Table IV
     with pytest.raises(ValueError):
-        ct.bank_parameters(4)
+        ct.bank_parameters(5)
     with pytest.raises(ValueError):
         ct.generate([(1.0, 1.0, 1.0)], 10, np.random.default_rng(0))
 

@@ -139,6 +139,26 @@ def validate_set_param(core: FswCore, tc: m.Telecommand) -> SetParam:
     return SetParam(tc.param, float(tc.value), installs, tc.network or "all")
 
 
+# -- set-rqp --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SetRqp:
+    enabled: bool | None
+    every: int | None
+
+    def apply(self, core: FswCore) -> Reply:
+        core.rqp.set(enabled=self.enabled, every=self.every)
+        return {"enabled": float(core.rqp.enabled), "every": float(core.rqp.every)}, {}
+
+
+def validate_set_rqp(core: FswCore, tc: m.Telecommand) -> SetRqp:
+    """RQP adaptation on/off (param 'enabled', value 1 or 0) or its window P (param 'every')."""
+    if tc.param == "enabled" and tc.value in (0.0, 1.0):
+        return SetRqp(bool(tc.value), None)
+    if tc.param == "every" and tc.value is not None and float(tc.value).is_integer() and 2 <= tc.value <= 1000:
+        return SetRqp(None, int(tc.value))
+    raise CommandRejected("set-rqp takes param 'enabled' with value 1 or 0, or 'every' with an integer 2..1000")
+
+
 #: The telecommand table: command name -> validator returning the plan to apply.
 COMMANDS: dict[str, Callable[[FswCore, m.Telecommand], Plan]] = {
     "status": validate_status,
@@ -146,6 +166,7 @@ COMMANDS: dict[str, Callable[[FswCore, m.Telecommand], Plan]] = {
     "enable-filter": validate_enable_filter,
     "disable-filter": validate_disable_filter,
     "set-param": validate_set_param,
+    "set-rqp": validate_set_rqp,
 }
 
 #: Everything a validator or a plan raises for a command that cannot be carried out.

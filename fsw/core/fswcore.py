@@ -29,12 +29,14 @@ import numpy as np
 
 from fsw.config import FswConfig, InitialState
 from fsw.core import commands
+from fsw.core.adaptation import OnboardRqp, report_message
 from fsw.core.counters import CoreCounters, ExtraCounters, status_counts
 from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_job, gating_cost, ingest_cost,
                                no_gc_pauses, telemetry_cost)
 from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, budget_message, command_record,
                                 estimate_message, status_message, weights_message)
 from fsw.executive import BudgetReportData, FrameExecutive
+from fsw.executive.work import Job, Stage
 from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.filters.bank import FilterBank, FilterEstimate
 from fsw.filters.errors import MeasurementRejected
@@ -85,6 +87,8 @@ class FswCore:
         self._next_idle_report = init.t_s
         self.frames_reported = 0
         self.max_utilisation = 0.0
+        #: RQP adaptation of the best filter (Chaer et al. 1997 §IV); idle unless enabled
+        self.rqp = OnboardRqp(config.rqp, config.budget)
 
     # -- checkpoints (fsw.core.checkpoint) ------------------------------------------------------
     def __getstate__(self) -> dict[str, object]:
@@ -172,6 +176,11 @@ class FswCore:
         self.advance_to(meas.t_s)
         load = Load(active_filters=int(self.bank.active.sum()), networks=len(self.networks))
         self.executive.submit(build_job(self, self.PIPELINE, meas, self.config.budget, load))
+        if self.rqp.enabled or self.rqp.busy:
+            # one slice of the search per measurement, lowest priority, its own lane: never ahead
+            # of the bank, charged to the frame that runs it
+            self.executive.submit(Job(meas.t_s, (Stage("telemetry", self._stage_rqp, lane="rqp",
+                                                       cost=self.config.rqp.slice_cost, name="rqp"),), "rqp"))
 
     def advance_to(self, t: float) -> None:
         """Run every frame that ends before ``t``.
@@ -199,10 +208,15 @@ class FswCore:
                 self.bank.propagate_to(self._next_estimate)
                 self._emit_estimates(self._next_estimate)
             self._next_estimate += self.config.telemetry.estimate_every_s
+        if self.rqp.enabled:
+            self.rqp.before(self.bank)
         try:
             ctx.record = self.bank.process(ctx.meas)
         except MeasurementRejected as exc:
             self.counters.bank_rejected[exc.reason] += 1
+            return
+        if self.rqp.enabled:
+            self.rqp.after(self.bank, ctx.meas, self._preferred_filter())
 
     def _stage_gating(self, ctx: JobContext) -> None:
         if ctx.record is None:
@@ -230,6 +244,21 @@ class FswCore:
             self._emit_status("running", t)
             while self._next_status <= t:
                 self._next_status += tel.status_every_s
+
+    def _stage_rqp(self) -> None:
+        done = self.rqp.slice(self.bank, self.executive.t_now)
+        if done is not None:
+            self._emit(topics.FSW_RQP, report_message(done))
+
+    def _preferred_filter(self) -> str:
+        """The enabled filter of largest weight (the detector's network), or the best-informed
+        one before any weights."""
+        weights = self.weights_for_combination()
+        enabled = [n for n, a in zip(self.filters, self.bank.active) if a]
+        if weights is None:
+            return min(enabled, key=self.bank.position_sigma_km)
+        w = dict(zip(self.filters, weights))
+        return max(enabled, key=lambda n: w.get(n, 0.0))
 
     #: One job per measurement: (priority class, label, stage, declared cost in work units).
     PIPELINE: ClassVar[tuple[StageSpec[FswCore], ...]] = (

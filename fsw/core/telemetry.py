@@ -25,7 +25,7 @@ from fsw.interface import messages as m
 from fsw.interface.messages import RunState
 
 #: Every message the FSW core emits.
-FswMessage = m.FilterWeights | m.AnomalyReport | m.Estimate | m.BudgetReport | m.RunStatus | m.CommandRecord
+FswMessage = m.FilterWeights | m.AnomalyReport | m.Estimate | m.BudgetReport | m.RunStatus | m.CommandRecord | m.RqpReport
 #: Where the core's messages go: ``emit(topic, message)`` (a publisher, a list, a recorder).
 Emit = Callable[[str, FswMessage], None]
 

@@ -151,6 +151,30 @@ class FilterBank:
         else:
             raise ValueError(f"unknown parameter {param!r}")
 
+    def processes(self, name: str, kind: str) -> bool:
+        """Whether filter ``name`` updates with measurements of ``kind``."""
+        mask = self._process_masks.get(kind)
+        return bool(mask is not None and mask[self.index(name)])
+
+    #: Parameters :meth:`get_param` reads (what parameter adaptation may tune).
+    TUNABLE_PREFIXES = ("sigma_scale.", "velocity_noise_psd", "clock.q_")
+
+    def get_param(self, name: str, param: str) -> float:
+        """Current value of a noise parameter :meth:`set_param` sets (``sigma_scale.<kind>``,
+        ``velocity_noise_psd``, ``clock.q_white_fm``, ``clock.q_random_walk_fm``, ``clock.q_random_run``)."""
+        i = self.index(name)
+        if param.startswith("sigma_scale."):
+            kind = param.split(".", 1)[1]
+            if kind not in self._sigma_scale:
+                raise ValueError(f"{param}: unknown kind")
+            return float(self._sigma_scale[kind][i])
+        if param == "velocity_noise_psd":
+            return float(self.stack.snc_psd[i])
+        k = {"clock.q_white_fm": 0, "clock.q_random_walk_fm": 1, "clock.q_random_run": 2}.get(param)
+        if k is None:
+            raise ValueError(f"parameter {param!r} cannot be read")
+        return float(self.stack.clock_q[i, k])
+
     # -- processing ----------------------------------------------------------------------------
     def _screen(self, meas: Measurement) -> tuple[np.ndarray, np.ndarray]:
         value, sigma = screen(meas, kinds.DIMENSIONS)

@@ -141,6 +141,13 @@ class LinearFilterBank:
         self.R[self.index(name)] = _stack(R, 1, self.R.shape[1:], "R")[0]
         self._rebuild()
 
+    def reinitialise(self, x: ArrayLike, P: ArrayLike) -> None:
+        """Restart every filter from state ``x`` and covariance ``P`` (shared or per filter): what
+        follows a parameter adaptation in Chaer et al. 1997 §V.D (steps 2 and 3)."""
+        N, n = len(self.names), self._n
+        self._PX[:, :, :n] = _stack(P, N, (n, n), "P")
+        self._PX[:, :, n] = -_stack(x, N, (n,), "x")
+
     def _all_process(self, kind: str) -> bool:
         return kind in self._every_filter_processes
 

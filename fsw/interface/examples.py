@@ -74,4 +74,9 @@ def examples() -> dict[str, list]:
             m.RunStatus(t_s=_T, timestamp=_STAMP, run_id="run-1", source="sim", state="end-of-run",
                         counts={"published": 21000}),
         ],
+        "RqpReport": [
+            m.RqpReport(t_s=_T, timestamp=_STAMP, filter="radio", params=("sigma_scale.range", "sigma_scale.doppler"),
+                        alpha_before=(1.0, 1.0), alpha_after=(1.05, 0.93), nll_before=-518.02, nll_after=-518.27,
+                        window=40, iterations=3, evaluations=43, cost=7.0, applied=True, status="converged"),
+        ],
     }

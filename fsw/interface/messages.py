@@ -49,7 +49,7 @@ MAX_COUNTERS = 1024  # entries of a counter or status mapping
 
 RunState = Literal["start", "running", "end-of-run", "error"]
 
-TelecommandName = Literal["reset-gating", "enable-filter", "disable-filter", "set-param", "status"]
+TelecommandName = Literal["reset-gating", "enable-filter", "disable-filter", "set-param", "status", "set-rqp"]
 TELECOMMANDS: tuple[str, ...] = get_args(TelecommandName)
 
 
@@ -226,6 +226,31 @@ class AuthTag:
 
 
 @dataclass(frozen=True, slots=True)
+class RqpReport:
+    """One RQP parameter adaptation of the best filter, Chaer et al. 1997 §IV (fsw → ground)."""
+
+    t_s: float = spec(doc="epoch when the search ended and its result was applied, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    filter: str = spec(max_length=NAME_CHARS, doc="the filter re-tuned (the one the gating network preferred)")
+    params: tuple[str, ...] = spec(max_items=MAX_STATES, max_length=NAME_CHARS, doc="names of the components of α")
+    alpha_before: tuple[float, ...] = spec(max_items=MAX_STATES, doc="α before the adaptation")
+    alpha_after: tuple[float, ...] = spec(max_items=MAX_STATES, doc="α found (applied when 'applied')")
+    nll_before: float = spec(doc="J (eq. 22, negative log-likelihood of the window) at α before", unit="1")
+    nll_after: float = spec(doc="J at α after", unit="1")
+    window: int = spec(doc="measurements in the window (P)", ge=0)
+    iterations: int = spec(doc="SLSQP iterations", ge=0)
+    evaluations: int = spec(doc="J evaluations (α rows; a gradient costs 2·dim α)", ge=0)
+    cost: float = spec(doc="budget its slices were charged, all together: scaled CPU seconds (mode cpu) or work "
+                       "units (mode work-units), as the executive charges them", ge=0.0)
+    applied: bool = spec(doc="the new α was applied (false: within the minimum change of the old)")
+    status: str = spec(max_length=NAME_CHARS, doc="how SLSQP ended")
+
+    def __post_init__(self) -> None:
+        if not len(self.params) == len(self.alpha_before) == len(self.alpha_after):
+            raise ValueError("params, alpha_before and alpha_after must have the same length")
+
+
+@dataclass(frozen=True, slots=True)
 class Telecommand:
     """A command to the FSW (ground → fsw, as a Zenoh query payload)."""
 
@@ -233,8 +258,9 @@ class Telecommand:
     command: TelecommandName = spec(doc="what to do")
     network: str | None = spec(None, max_length=NAME_CHARS, doc="gating network the command applies to (reset-gating, set-param)")
     filter: str | None = spec(None, max_length=NAME_CHARS, doc="filter the command applies to (enable-filter, disable-filter)")
-    param: str | None = spec(None, max_length=NAME_CHARS, doc="parameter name (set-param), e.g. 'sigma_w', 'batch_size', 'eta'")
-    value: float | None = spec(None, doc="parameter value (set-param)")
+    param: str | None = spec(None, max_length=NAME_CHARS, doc="parameter name (set-param), e.g. 'sigma_w', 'batch_size', "
+                             "'eta'; set-rqp: 'enabled' (value 1 or 0) or 'every' (window of P measurements)")
+    value: float | None = spec(None, doc="parameter value (set-param, set-rqp)")
     auth: AuthTag | None = spec(None, doc="authentication tag; an FSW that holds the run's key refuses a command without a valid one")
 
     def __post_init__(self) -> None:
@@ -242,6 +268,7 @@ class Telecommand:
             "enable-filter": ("filter",),
             "disable-filter": ("filter",),
             "set-param": ("network", "param", "value"),
+            "set-rqp": ("param", "value"),
         }.get(self.command, ())
         for name in needs:
             if getattr(self, name) is None:
@@ -305,5 +332,6 @@ MESSAGE_TYPES: dict[str, type] = {
         TelecommandReply,
         CommandRecord,
         RunStatus,
+        RqpReport,
     )
 }

@@ -23,6 +23,7 @@ FSW_BUDGET = "fsw/budget"
 FSW_STATUS = "fsw/status"
 FSW_COMMAND = "fsw/cmd"  # queryable: Telecommand in, TelecommandReply out
 FSW_COMMANDS = "fsw/commands"  # every telecommand served, with its reply (CommandRecord)
+FSW_RQP = "fsw/rqp"  # RQP parameter adaptations (RqpReport)
 GROUND_STATUS = "ground/status"
 
 #: topic (or topic prefix ending in "/") -> ICD type
@@ -37,6 +38,7 @@ TOPIC_TYPES: dict[str, type] = {
     FSW_BUDGET: m.BudgetReport,
     FSW_STATUS: m.RunStatus,
     FSW_COMMANDS: m.CommandRecord,
+    FSW_RQP: m.RqpReport,
     GROUND_STATUS: m.RunStatus,
 }
 

@@ -104,6 +104,26 @@ def _hierarchy_lines(data: RunData) -> list[str]:
     return lines
 
 
+def _rqp_lines(data: RunData) -> list[str]:
+    """Each RQP adaptation of the best filter (Chaer et al. 1997 §IV): α and J before and after."""
+    if not data.rqp:
+        return []
+    cost = sum(r.cost for r in data.rqp)
+    unit = "work units" if data.budget is not None and data.budget.mode == "work-units" else "s of (scaled) CPU"
+    lines = ["## RQP parameter adaptation", "",
+             f"{len(data.rqp)} adaptations, {sum(r.applied for r in data.rqp)} applied; they were charged {cost:.3g} {unit} "
+             "of the frame budget in all. "
+             "J is the negative log-likelihood of the window (eq. 22).", ""]
+    rows = [[_num(data.day(r.t_s), ".2f"), r.filter,
+             ", ".join(f"{p} {_num(a, '.3g')} → {_num(b, '.3g')}" for p, a, b in zip(r.params, r.alpha_before, r.alpha_after)),
+             _num(r.nll_before, ".2f"), _num(r.nll_after, ".2f"), _num(r.iterations, "d"), "yes" if r.applied else "no"]
+            for r in data.rqp[:50]]
+    lines += _table(["day", "filter", "α before → after", "J before", "J after", "iterations", "applied"], rows) + [""]
+    if len(data.rqp) > 50:
+        lines += [f"(the first 50 of {len(data.rqp)})", ""]
+    return lines
+
+
 def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source: str, facts_from: str,
                  data: RunData | None = None) -> str:
     """Markdown text of a run report; ``data`` (the extracted messages) adds the hierarchical gating tables."""
@@ -159,6 +179,7 @@ def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source:
         lines += _table(["network", "span"] + filters, wrows) + [""]
     if data is not None:
         lines += _hierarchy_lines(data)
+        lines += _rqp_lines(data)
     pos = s.get("position_error_rms_km") or {}
     if pos:
         fin = s.get("position_error_final_km") or {}

@@ -113,6 +113,7 @@ class RunData:
     filters: tuple[str, ...] = ()  # bank order (from the weights, else the estimate topics)
     status: dict[str, m.RunStatus] = field(default_factory=dict)  # source -> last RunStatus
     hierarchy: dict[str, HierarchicalHistory] = field(default_factory=dict)  # networks that publish bank weights
+    rqp: list[m.RqpReport] = field(default_factory=list)  # RQP parameter adaptations, in time order
     skipped: int = 0
 
     @overload
@@ -452,6 +453,7 @@ def extract(messages: Iterable[Any], *, t0: float | None = None,
             ms = _sorted(kinds[kind])
             data.measurements[kind] = (np.array([x.t_s for x in ms], dtype=float), np.array([x.source for x in ms], dtype=object))
     data.faults = _sorted(by.get(topics.SIM_FAULTS, []))
+    data.rqp = _sorted(by.get(topics.FSW_RQP, []))
     for topic in (topics.SIM_STATUS, topics.FSW_STATUS, topics.GROUND_STATUS):
         for s in _sorted(by.get(topic, [])):
             data.status[s.source] = s

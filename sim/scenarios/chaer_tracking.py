@@ -165,6 +165,22 @@ def generate(
     return TrackingRun(t=t, x=x, z=z, segment=segment, alpha=alpha)
 
 
+#: Table IV (Chaer et al. 1997 §V.D, Experiment 4): the bank before the first RQP adaptation.
+TABLE_IV = ((20.0, 20.0, 20.0, 20.0), (0.0, 0.0, 5.0, 5.0), (10.0, 10.0, 1.0, 1.0),
+            (5.0, 5.0, 5.0, 5.0), (50.0, 50.0, 50.0, 50.0))
+#: Experiment 4's "actual solution" α* (§V.D); the paper does not state the generating parameters,
+#: so the truth is simulated with α* itself.
+EXPERIMENT_4_TRUTH = (4.31, 22.45, 24.01, 11.42)
+#: What the paper's first adaptation (t = 200 s, from KF 1) found.
+EXPERIMENT_4_PAPER_FIRST = (4.70, 20.69, 22.83, 14.54)
+EXPERIMENT_4_PERIOD = 200
+
+
+def experiment_4(rng: np.random.Generator, length: int = 1000) -> TrackingRun:
+    """Experiment 4 (Chaer et al. 1997 §V.D): truth with α* (see :data:`EXPERIMENT_4_TRUTH`)."""
+    return generate([EXPERIMENT_4_TRUTH], length, rng)
+
+
 def experiment_1(rng: np.random.Generator, length: int = 300) -> TrackingRun:
     """Experiment 1 (Chaer et al. 1997 §V.A): truth with KF 3's Table I parameters."""
     return generate([TABLE_I_TRUTH], length, rng)
@@ -181,10 +197,10 @@ def experiment_3(rng: np.random.Generator, segment_length: int = EXPERIMENT_3_SE
 
 
 def bank_parameters(experiment: int) -> np.ndarray:
-    """The (5, 4) α table of the filter bank of Experiment 1, 2 or 3."""
-    tables = {1: TABLE_I, 2: TABLE_II, 3: TABLE_III}
+    """The (5, 4) α table of the filter bank of Experiment 1, 2, 3 or 4."""
+    tables = {1: TABLE_I, 2: TABLE_II, 3: TABLE_III, 4: TABLE_IV}
     if experiment not in tables:
-        raise ValueError(f"experiment must be 1, 2 or 3, got {experiment!r}")
+        raise ValueError(f"experiment must be 1, 2, 3 or 4, got {experiment!r}")
     return np.asarray(tables[experiment], dtype=float)
 
 def switch_delays(

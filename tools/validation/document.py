@@ -537,7 +537,7 @@ def render(sections: list[Section], *, generated: str, commands: list[str]) -> s
 
 def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
           chaer1997: Callable[[], Any] | None = None, chaer1997_ga: Callable[[], Any] | None = None,
-          optical: bool = True) -> Path:
+          optical: bool = True, rqp: Callable[[], Any] | None = None) -> Path:
     """Write ``out_dir/validation.md`` and ``out_dir/figures/``."""
     from ground.report.build import report_campaign
     from tools.validation.chaer1997 import plot_experiment_3, run_chaer1997
@@ -571,6 +571,18 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
 
     sections.append(ga_section((chaer1997_ga or run_campaign)(), fig_dir, out_dir))
     sections[-1].discussion = GA_DISCUSSION
+    from tools.validation import chaer1997_rqp
+
+    exp4 = (rqp or chaer1997_rqp.run_experiment_4)()
+    sections.append(chaer1997_rqp.experiment4_section(
+        exp4, chaer1997_rqp.plot_experiment_4(exp4, fig_dir / "chaer1997-experiment4-rqp.png"), out_dir))
+    sections[-1].discussion = chaer1997_rqp.EXPERIMENT4_DISCUSSION
+    from tools.validation import hanlon2000
+
+    hm = hanlon2000.run_hanlon2000()
+    sections.append(hanlon2000.hanlon2000_section(hm, hanlon2000.plot_hanlon2000(hm, fig_dir / "hanlon2000-identification.png"),
+                                                  out_dir))
+    sections[-1].discussion = hanlon2000.HANLON2000_DISCUSSION
     if cruise:
         from tools.validation.chaer1998 import chaer1998_section
 
