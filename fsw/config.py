@@ -86,6 +86,12 @@ class TelemetryConfig:
     anomaly_every_s: float = spec(6 * 3600.0, doc="periodic AnomalyReport cadence (also sent on every change)", unit="s", gt=0)
     idle_budget_every_s: float = spec(3600.0, doc="BudgetReport cadence for frames with nothing to do", unit="s", gt=0)
     status_every_s: float = spec(86400.0, doc="periodic RunStatus (counters) cadence", unit="s", gt=0)
+    residuals_every_s: float | None = spec(
+        None, doc="pre-fit residuals (Residuals): the measurements filtered since the last message, sent at the end of "
+        "the first executive frame this long after it (null: not sent)", unit="s", ge=0)
+    bplane_every_s: float | None = spec(
+        None, doc="B-plane targeting (BPlane) of the combined, best and per-filter estimates, on the estimate grid "
+        "at this cadence (null: not sent)", unit="s", gt=0)
 
 
 @dataclass(frozen=True)

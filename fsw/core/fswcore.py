@@ -33,8 +33,9 @@ from fsw.core.adaptation import OnboardRqp, report_message
 from fsw.core.counters import CoreCounters, ExtraCounters, status_counts
 from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_job, gating_cost, ingest_cost,
                                no_gc_pauses, telemetry_cost)
-from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, budget_message, command_record,
-                                estimate_message, status_message, weights_message)
+from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, bplane_message, budget_message,
+                                command_record, estimate_message, residual_sample, residuals_message, status_message,
+                                weights_message)
 from fsw.executive import BudgetReportData, FrameExecutive
 from fsw.executive.work import Job, Stage
 from fsw.fdir.detector import AnomalyDetector, AnomalyState
@@ -79,6 +80,9 @@ class FswCore:
         self._next_estimate = init.t_s
         self._next_anomaly = init.t_s
         self._next_status = init.t_s + config.telemetry.status_every_s
+        self._residuals: list[m.ResidualSample] = []
+        self._next_residuals = init.t_s + (config.telemetry.residuals_every_s or 0.0)
+        self._next_bplane = init.t_s
         self._last_t = init.t_s
         self._end: m.RunStatus | None = None
         #: counters of the process around the core (e.g. malformed telecommands), in every status
@@ -139,12 +143,14 @@ class FswCore:
                 drained = self.executive.drain(max_frames=1)
             for rep in drained.reports:
                 self._emit_budget(rep)
+                self._emit_residuals(rep.t_s, force=False)
         t_end = max(self._last_t, self.bank.t)
         for name, net in self.networks.items():
             upd = net.flush()
             if upd is not None:
                 # outside any frame: a declaration here is known at its data epoch
                 self._publish_weights(name, upd, frame_end=None)
+        self._emit_residuals(t_end, force=True)
         self._emit_estimates(t_end)
         if self.reporter is not None:
             self._report_anomaly(self.reporter.state, force=True, t=t_end)
@@ -194,6 +200,7 @@ class FswCore:
             busy = rep.processed or rep.deferred or rep.backlog or rep.overruns != self._last_overruns
             if busy or rep.t_s >= self._next_idle_report:
                 self._emit_budget(rep)
+            self._emit_residuals(rep.t_s, force=False)
 
     # -- the pipeline: the stages of one measurement's job, in order -----------------------------
     def _stage_ingest(self, ctx: JobContext) -> None:
@@ -215,6 +222,8 @@ class FswCore:
         except MeasurementRejected as exc:
             self.counters.bank_rejected[exc.reason] += 1
             return
+        if self.config.telemetry.residuals_every_s is not None:
+            self._residuals.append(residual_sample(ctx.record, ctx.meas.source))
         if self.rqp.enabled:
             self.rqp.after(self.bank, ctx.meas, self._preferred_filter())
 
@@ -320,6 +329,31 @@ class FswCore:
             if label in self.filters and not tel.per_filter_estimates:
                 continue
             self._emit(f"{topics.FSW_ESTIMATE}/{label}", estimate_message(est, label, tel.full_covariance))
+        self._emit_bplanes(t, {k: v for k, v in ests.items() if k not in self.filters or tel.per_filter_estimates})
+
+    def _emit_residuals(self, t: float, force: bool) -> None:
+        """The residuals gathered since the last message, at the end of a frame once
+        ``telemetry.residuals_every_s`` has passed (``force``: at the end of the run)."""
+        every = self.config.telemetry.residuals_every_s
+        if every is None or not self._residuals or not (force or t >= self._next_residuals):
+            return
+        for start in range(0, len(self._residuals), m.MAX_COUNTERS):
+            self._emit(topics.FSW_RESIDUALS, residuals_message(t, self.filters, self._residuals[start:start + m.MAX_COUNTERS]))
+        self._residuals = []
+        while self._next_residuals <= t:
+            self._next_residuals += max(every, self.config.budget.frame_s)
+
+    def _emit_bplanes(self, t: float, ests: dict[str, FilterEstimate]) -> None:
+        """B-plane targeting of the estimates just emitted, every ``telemetry.bplane_every_s``."""
+        every = self.config.telemetry.bplane_every_s
+        if every is None or t < self._next_bplane:
+            return
+        while self._next_bplane <= t:
+            self._next_bplane += every
+        for label, est in ests.items():
+            msg = bplane_message(est, label)
+            if msg is not None:
+                self._emit(f"{topics.FSW_BPLANE}/{label}", msg)
 
     def _emit_budget(self, rep: BudgetReportData) -> None:
         self._last_overruns = rep.overruns

@@ -20,12 +20,15 @@ from fsw.astro.time import tdb_to_unix
 from fsw.executive.report import BudgetReportData
 from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.filters.bank import FilterEstimate
+from fsw.filters.record import BankRecord
 from fsw.gating.base import WeightsUpdate
 from fsw.interface import messages as m
 from fsw.interface.messages import RunState
+from fsw.models.bplane import NotHyperbolic, bplane_target
 
 #: Every message the FSW core emits.
-FswMessage = m.FilterWeights | m.AnomalyReport | m.Estimate | m.BudgetReport | m.RunStatus | m.CommandRecord | m.RqpReport
+FswMessage = (m.FilterWeights | m.AnomalyReport | m.Estimate | m.BudgetReport | m.RunStatus | m.CommandRecord
+              | m.RqpReport | m.Residuals | m.BPlane)
 #: Where the core's messages go: ``emit(topic, message)`` (a publisher, a list, a recorder).
 Emit = Callable[[str, FswMessage], None]
 
@@ -66,6 +69,41 @@ def estimate_message(est: FilterEstimate, label: str, full_covariance: bool) -> 
         position_sigma_km=float(est.position_sigma_km), state_names=tuple(est.state_names),
         state=tuple(float(v) for v in est.x), sigma=tuple(float(v) for v in est.sigma),
         covariance=tuple(tuple(float(v) for v in row) for row in est.P) if full_covariance else None,
+    )
+
+
+def residual_sample(rec: BankRecord, source: str) -> m.ResidualSample:
+    """The pre-fit residuals the bank computed for one measurement (Lubey & Ely 2022 eq. 5), with
+    σ = √diag S and the normalised residual z̄/σ per filter and component; not recomputed."""
+    sigma = np.sqrt(np.maximum(np.diagonal(rec.S, axis1=1, axis2=2), 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        norm = np.where(sigma > 0.0, rec.residual / np.where(sigma > 0.0, sigma, 1.0), 0.0)
+    return m.ResidualSample(
+        t_s=float(rec.t), seq=int(rec.seq), kind=rec.kind, source=source,
+        residual=tuple(tuple(float(v) for v in row) for row in rec.residual),
+        sigma=tuple(tuple(float(v) for v in row) for row in sigma),
+        normalised=tuple(tuple(float(v) for v in row) for row in norm),
+        nis=tuple(float(c) for c in rec.chi2), processed=tuple(bool(p) for p in rec.processed),
+    )
+
+
+def residuals_message(t: float, filters: tuple[str, ...], samples: list[m.ResidualSample]) -> m.Residuals:
+    """The residuals of the measurements filtered since the last message, sent at frame end ``t``."""
+    return m.Residuals(t_s=float(t), timestamp=stamp(t), filters=filters, samples=tuple(samples))
+
+
+def bplane_message(est: FilterEstimate, label: str) -> m.BPlane | None:
+    """B-plane targeting of one estimate (:mod:`fsw.models.bplane`); None while the estimate is
+    not on a hyperbola about Mars (it then has no B-plane)."""
+    try:
+        tgt = bplane_target(float(est.t), est.position_km, est.velocity_km_s, est.P)
+    except NotHyperbolic:
+        return None
+    cov = tgt.covariance_km2
+    return m.BPlane(
+        t_s=float(est.t), timestamp=stamp(est.t), filter=label, b_dot_r_km=tgt.b_dot_r_km, b_dot_t_km=tgt.b_dot_t_km,
+        covariance_km2=((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))),
+        periapsis_s=tgt.periapsis_s, periapsis_sigma_s=tgt.periapsis_sigma_s, v_inf_km_s=tgt.v_inf_km_s,
     )
 
 

@@ -49,6 +49,17 @@ def examples() -> dict[str, list]:
                        state_names=("x", "y", "z", "vx", "vy", "vz"), state=(-1.2e5, 3.4e5, 1.1e5, 0.9, -2.4, -0.8),
                        sigma=(2.0, 2.0, 1.5, 1e-5, 1e-5, 1e-5)),
         ],
+        "Residuals": [
+            m.Residuals(t_s=_T, timestamp=_STAMP, filters=("radio", "optical"), samples=(
+                m.ResidualSample(t_s=_T - 30.0, seq=41, kind="range", source="DSS-14", residual=((0.0012,), (0.8,)),
+                                 sigma=((0.0011,), (72.4,)), normalised=((1.09,), (0.011,)), nis=(1.19, 0.0001),
+                                 processed=(True, False)),)),
+        ],
+        "BPlane": [
+            m.BPlane(t_s=_T, timestamp=_STAMP, filter="combined", b_dot_r_km=473.4, b_dot_t_km=6677.1,
+                     covariance_km2=((153.8, 44.2), (44.2, 44.6)), periapsis_s=_T + 3.9e6, periapsis_sigma_s=10.8,
+                     v_inf_km_s=2.957),
+        ],
         "BudgetReport": [
             m.BudgetReport(frame=7, t_s=_T, timestamp=_STAMP, mode="cpu", used=0.012, budget=0.05, utilisation=0.24,
                            processed=31, deferred=0, backlog=0, overruns=0),

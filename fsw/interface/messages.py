@@ -199,6 +199,54 @@ class Estimate:
 
 
 @dataclass(frozen=True, slots=True)
+class ResidualSample:
+    """Pre-fit residuals of one measurement in every filter of the bank (Lubey & Ely 2022 eq. 5:
+    z̄_ij = y_j − h_ij(x̄_ij), S_ij = R_ij + H̃_ij P̄_ij H̃_ijᵀ), as the bank computed them for the gating."""
+
+    t_s: float = spec(doc="measurement time tag, TDB seconds past J2000", unit="s")
+    seq: int = spec(doc="measurement sequence number", ge=0)
+    kind: MeasurementKind = spec(doc="measurement type")
+    source: str = spec(max_length=NAME_CHARS, doc="station (range/doppler) or optical target")
+    residual: tuple[tuple[float, ...], ...] = spec(max_items=MAX_FILTERS, doc="pre-fit residual per filter (rows, bank order) and component, measurement units")
+    sigma: tuple[tuple[float, ...], ...] = spec(max_items=MAX_FILTERS, doc="sqrt of the diagonal of S per filter and component, measurement units")
+    normalised: tuple[tuple[float, ...], ...] = spec(max_items=MAX_FILTERS, doc="residual / sigma per filter and component", unit="1")
+    nis: tuple[float, ...] = spec(max_items=MAX_FILTERS, doc="normalised innovation squared z̄ᵀ S⁻¹ z̄ per filter (Lubey & Ely 2022 eq. 6)", unit="1")
+    processed: tuple[bool, ...] = spec(max_items=MAX_FILTERS, doc="the filter updated its state with this measurement")
+
+    def __post_init__(self) -> None:
+        n = len(self.nis)
+        if not (len(self.residual) == len(self.sigma) == len(self.normalised) == len(self.processed) == n):
+            raise ValueError("residual, sigma, normalised, nis and processed need one entry per filter")
+
+
+@dataclass(frozen=True, slots=True)
+class Residuals:
+    """The pre-fit residuals of the measurements one executive frame took on (fsw → ground): one
+    message per frame that filtered any, so the bus rate follows frames, not measurements."""
+
+    t_s: float = spec(doc="end of the frame, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    filters: tuple[str, ...] = spec(max_items=MAX_FILTERS, max_length=NAME_CHARS, doc="filter names, bank order (rows of every sample)")
+    samples: tuple[ResidualSample, ...] = spec(max_items=MAX_COUNTERS, doc="one entry per measurement filtered in the frame, in order")
+
+
+@dataclass(frozen=True, slots=True)
+class BPlane:
+    """B-plane targeting of one navigation solution (fsw → ground): the incoming hyperbolic
+    asymptote relative to Mars. T̂ = Ŝ×k̂/|Ŝ×k̂| with k̂ the Mars pole (IAU 2009), R̂ = Ŝ×T̂."""
+
+    t_s: float = spec(doc="epoch of the solution, TDB seconds past J2000", unit="s")
+    timestamp: Stamp = spec(doc="epoch as Unix time")
+    filter: str = spec(max_length=NAME_CHARS, doc="filter name, or 'combined' / 'best' (as Estimate.filter)")
+    b_dot_r_km: float = spec(doc="B·R", unit="km")
+    b_dot_t_km: float = spec(doc="B·T", unit="km")
+    covariance_km2: tuple[tuple[float, ...], ...] = spec(doc="covariance of (B·R, B·T) mapped from the state covariance", unit="km^2", shape=(2, 2))
+    periapsis_s: float = spec(doc="epoch of closest approach on the osculating hyperbola, TDB seconds past J2000", unit="s")
+    periapsis_sigma_s: float = spec(doc="1-sigma of the closest-approach epoch", unit="s", ge=0.0)
+    v_inf_km_s: float = spec(doc="hyperbolic excess speed", unit="km/s", ge=0.0)
+
+
+@dataclass(frozen=True, slots=True)
 class BudgetReport:
     """One frame of the FSW frame executive (fsw → ground)."""
 
@@ -327,6 +375,8 @@ MESSAGE_TYPES: dict[str, type] = {
         FilterWeights,
         AnomalyReport,
         Estimate,
+        Residuals,
+        BPlane,
         BudgetReport,
         Telecommand,
         TelecommandReply,

@@ -20,6 +20,8 @@ FSW_WEIGHTS = "fsw/weights"  # + "/<network>"
 FSW_ANOMALY = "fsw/anomaly"
 FSW_ESTIMATE = "fsw/estimate"  # + "/<filter>" ("combined", "best", or a filter name)
 FSW_BUDGET = "fsw/budget"
+FSW_RESIDUALS = "fsw/residuals"  # pre-fit residuals, one message per executive frame
+FSW_BPLANE = "fsw/bplane"  # + "/<filter>" ("combined", "best", or a filter name)
 FSW_STATUS = "fsw/status"
 FSW_COMMAND = "fsw/cmd"  # queryable: Telecommand in, TelecommandReply out
 FSW_COMMANDS = "fsw/commands"  # every telecommand served, with its reply (CommandRecord)
@@ -36,6 +38,8 @@ TOPIC_TYPES: dict[str, type] = {
     FSW_ANOMALY: m.AnomalyReport,
     FSW_ESTIMATE + "/": m.Estimate,
     FSW_BUDGET: m.BudgetReport,
+    FSW_RESIDUALS: m.Residuals,
+    FSW_BPLANE + "/": m.BPlane,
     FSW_STATUS: m.RunStatus,
     FSW_COMMANDS: m.CommandRecord,
     FSW_RQP: m.RqpReport,

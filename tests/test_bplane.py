@@ -1,0 +1,89 @@
+"""B-plane targeting (fsw/models/bplane.py) against an independently built hyperbola."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fsw.astro.constants import GM_MARS
+from fsw.models.bplane import NotHyperbolic, bplane_jacobian, bplane_target, mars_pole
+
+
+def _rotation(a: float, b: float, c: float) -> np.ndarray:
+    def rz(t: float) -> np.ndarray:
+        return np.array([[math.cos(t), -math.sin(t), 0], [math.sin(t), math.cos(t), 0], [0, 0, 1]])
+
+    def rx(t: float) -> np.ndarray:
+        return np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
+
+    return rz(a) @ rx(b) @ rz(c)
+
+
+def _hyperbola(e: float, a_abs: float, nu: float, q: np.ndarray):
+    """State at true anomaly ``nu`` and the B vector built from the geometry of the hyperbola:
+    the incoming asymptote passes through the centre (|a| e, 0) of the perifocal frame, and B is
+    the perpendicular from the focus to that line."""
+    p = a_abs * (e * e - 1.0)
+    r = p / (1.0 + e * math.cos(nu)) * np.array([math.cos(nu), math.sin(nu), 0.0])
+    v = math.sqrt(GM_MARS / p) * np.array([-math.sin(nu), e + math.cos(nu), 0.0])
+    nu_inf = math.acos(-1.0 / e)
+    s_hat = -np.array([math.cos(-nu_inf), math.sin(-nu_inf), 0.0])  # inbound along −r̂ at ν = −ν∞
+    centre = np.array([a_abs * e, 0.0, 0.0])
+    b_vec = centre - (centre @ s_hat) * s_hat
+    f = 2.0 * math.atanh(math.sqrt((e - 1.0) / (e + 1.0)) * math.tan(nu / 2.0))
+    dt_since_periapsis = (e * math.sinh(f) - f) / math.sqrt(GM_MARS / a_abs**3)
+    return q @ r, q @ v, q @ s_hat, q @ b_vec, dt_since_periapsis
+
+
+@pytest.mark.parametrize("e,a_abs,nu,angles", [
+    (1.8, 4900.0, -2.0, (0.3, 0.7, -1.1)),
+    (3.5, 2000.0, -1.0, (2.0, -0.4, 0.5)),
+    (1.2, 20000.0, -2.4, (-1.0, 1.2, 2.9)),
+])
+def test_bplane_matches_the_geometry_of_a_hand_built_hyperbola(e, a_abs, nu, angles):
+    q = _rotation(*angles)
+    r, v, s_hat, b_vec, dt = _hyperbola(e, a_abs, nu, q)
+    k = mars_pole()
+    t_hat = np.cross(s_hat, k) / np.linalg.norm(np.cross(s_hat, k))
+    r_hat = np.cross(s_hat, t_hat)
+    tgt = bplane_target(1000.0, r, v, np.eye(6))
+    assert np.linalg.norm(b_vec) == pytest.approx(a_abs * math.sqrt(e * e - 1.0), rel=1e-12)
+    assert tgt.b_dot_r_km == pytest.approx(b_vec @ r_hat, abs=1e-6 * a_abs)
+    assert tgt.b_dot_t_km == pytest.approx(b_vec @ t_hat, abs=1e-6 * a_abs)
+    assert tgt.periapsis_s == pytest.approx(1000.0 - dt, abs=1e-4)
+    assert tgt.v_inf_km_s == pytest.approx(math.sqrt(GM_MARS / a_abs), rel=1e-12)
+
+
+def test_jacobian_matches_central_differences():
+    r, v, *_ = _hyperbola(2.2, 3500.0, -1.7, _rotation(0.4, 1.1, -0.3))
+    values, jac = bplane_jacobian(r, v)
+    x = np.concatenate([r, v])
+    steps = [1e-2] * 3 + [1e-6] * 3  # km, km/s
+    for j in range(6):
+        dx = np.zeros(6)
+        dx[j] = steps[j]
+        hi, _ = bplane_jacobian((x + dx)[:3], (x + dx)[3:])
+        lo, _ = bplane_jacobian((x - dx)[:3], (x - dx)[3:])
+        fd = (hi[:3] - lo[:3]) / (2 * steps[j])
+        np.testing.assert_allclose(jac[:, j], fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(jac[:, j])))
+
+
+def test_covariance_is_mapped_through_the_jacobian():
+    r, v, *_ = _hyperbola(1.9, 5000.0, -2.1, _rotation(1.0, 0.2, 0.1))
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(7, 7))
+    P = a @ a.T
+    _, jac = bplane_jacobian(r, v)
+    tgt = bplane_target(0.0, r, v, P)
+    full = jac @ P[:6, :6] @ jac.T
+    np.testing.assert_allclose(tgt.covariance_km2, full[:2, :2], rtol=1e-12)
+    assert tgt.periapsis_sigma_s == pytest.approx(math.sqrt(full[2, 2]), rel=1e-12)
+
+
+def test_a_bound_state_has_no_bplane():
+    r = np.array([10000.0, 0.0, 0.0])
+    v = np.array([0.0, 1.0, 0.0])  # below escape speed (2.93 km/s at 10 000 km)
+    with pytest.raises(NotHyperbolic):
+        bplane_target(0.0, r, v, np.eye(6))
