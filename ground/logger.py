@@ -33,6 +33,9 @@ from typing import Any
 import fsw.transport as tp
 from fsw.interface import codec, topics
 from fsw.interface.messages import SCHEMA_VERSION, RunStatus
+from ground.foxglove.live import LiveView
+from ground.foxglove.tap import FoxgloveTap
+from ground.foxglove.view import FoxgloveView
 from ground.mcap_io import segments
 from ground.mcap_io.recorder import INVALID_PREFIX, REFUSED_PREFIX, McapRecorder, publish_time_of
 
@@ -85,18 +88,34 @@ def _attachment_items(attachments: Iterable[str | os.PathLike | tuple[str, bytes
 
 
 class _Writer:
-    """Turns samples into MCAP records with the bookkeeping of a :class:`LogResult`."""
+    """Turns samples into MCAP records with the bookkeeping of a :class:`LogResult`.
 
-    def __init__(self, rec: McapRecorder, validate: bool):
+    ``log_time`` is the message's mission time (its ``timestamp``) when ``mission_time`` — so a
+    player follows the mission — and a message without one (unknown or invalid payloads) gets
+    the latest mission time seen; otherwise the receive time."""
+
+    def __init__(self, rec: McapRecorder, validate: bool, mission_time: bool = True, tap: FoxgloveTap | None = None):
         self.rec = rec
         self.validate = validate
+        self.mission_time = mission_time
+        self.tap = tap
+        self._mission_ns: int | None = None
         self.unknown: dict[str, int] = {}
         self.invalid: dict[str, int] = {}
         self.ends: set[str] = set()  # producers whose end-of-run status was recorded
 
+    def _log_time(self, receive_ns: int, publish_ns: int | None) -> int:
+        if not self.mission_time:
+            return receive_ns
+        if publish_ns is not None:
+            self._mission_ns = publish_ns
+            return publish_ns
+        return receive_ns if self._mission_ns is None else self._mission_ns
+
     def _invalid(self, got: tp.Received) -> None:
         self.invalid[got.topic] = self.invalid.get(got.topic, 0) + 1
-        self.rec.write(f"{INVALID_PREFIX}/{got.topic}", got.payload, got.receive_ns, None, got.pub_seq or 0)
+        self.rec.write(f"{INVALID_PREFIX}/{got.topic}", got.payload, self._log_time(got.receive_ns, None), None,
+                       got.pub_seq or 0)
 
     def __call__(self, got: tp.Received) -> None:
         if got.refused:
@@ -122,7 +141,11 @@ class _Writer:
             except ValueError:  # ICDError is a ValueError, and so is a JSON syntax error
                 self._invalid(got)
                 return
-        self.rec.write(got.topic, got.payload, got.receive_ns, publish_time_of(message), got.pub_seq or 0)
+        publish_ns = publish_time_of(message)
+        log_ns = self._log_time(got.receive_ns, publish_ns)
+        self.rec.write(got.topic, got.payload, log_ns, publish_ns, got.pub_seq or 0)
+        if self.tap is not None:
+            self.tap(got.topic, cls, got.payload, message, log_ns)
         if isinstance(message, RunStatus) and message.state == "end-of-run":
             self.ends.add(message.source)
 
@@ -186,6 +209,9 @@ def run_logger(
     print_fn: Callable[[str], None] | None = print,
     after: Sequence[str | os.PathLike] = (),
     settle_s: float = 2.0,
+    mission_time: bool = True,
+    foxglove_channels: bool = True,
+    live: tuple[str, int] | None = None,
 ) -> LogResult:
     """Record run ``run_id`` into ``out_path`` until it ends or is stopped (see module doc).
 
@@ -198,6 +224,9 @@ def run_logger(
     one died, :mod:`ground.mcap_io.segments`): what they hold is not recorded again, the
     end-of-run statuses they hold count, and what went by while no logger was up is lost —
     counted in ``gaps`` once nothing more has arrived for ``settle_s``.
+    ``mission_time``: ``log_time`` is each message's mission time (see :class:`_Writer`);
+    ``foxglove_channels``: add the Foxglove view's channels (:mod:`ground.foxglove`); ``live``:
+    (host, port) to serve every channel over Foxglove's WebSocket protocol while recording.
     """
     topics.check_run_id(run_id)
     out_path = os.fspath(out_path)
@@ -227,7 +256,12 @@ def run_logger(
             rec.add_metadata("navbank.run", run_info)
             for name, data, media_type in items:
                 rec.add_attachment(name, data, media_type)
-            write = _Writer(rec, validate)
+            view = FoxgloveView() if foxglove_channels else None
+            server = None if live is None else LiveView(live[0], live[1])
+            tap = None if view is None and server is None else FoxgloveTap(rec, view, server)
+            if server is not None and print_fn is not None:
+                print_fn(f"live view: {server.url} (Foxglove: Open connection, Foxglove WebSocket)")
+            write = _Writer(rec, validate, mission_time, tap)
             if ready_event is not None:
                 ready_event.set()
             finished_at: float | None = None
@@ -258,6 +292,8 @@ def run_logger(
             for got in sub.drain_available():  # delivered before we stopped: keep it
                 write(got)
             _record_announced_ends(sub, write, producers, after)
+            if tap is not None:
+                tap.close()
             finished = tuple(p for p in producers if sub.finished([p]))
             result = LogResult(
                 path=out_path,

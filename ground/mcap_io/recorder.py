@@ -2,8 +2,10 @@
 
 One channel per topic (``/sim/measurements``, ``/fsw/weights/chi2``, ...), message encoding
 ``json``, schema encoding ``jsonschema`` with the ICD schema named ``navbank.<Type>/v1``.
-``log_time`` is the receive time and ``publish_time`` the message's own ``timestamp``, both ns
-since the Unix epoch. Chunks are small (64 KiB, zstd) and closed at least every
+``publish_time`` is the message's own ``timestamp`` and ``log_time`` whatever the caller passes
+(the ground logger: the same mission time by default, or the receive time), both ns since the
+Unix epoch. Channels outside the ICD (Foxglove's well-known types) go through
+:meth:`McapRecorder.write_foreign`. Chunks are small (64 KiB, zstd) and closed at least every
 ``flush_interval_s`` so that a recorder killed without warning leaves everything but its last
 second readable by :func:`ground.mcap_io.reader.read_messages`.
 """
@@ -70,6 +72,7 @@ class McapRecorder:
         self._writer.start(profile=PROFILE, library="navbank")
         self._file.flush()
         self._schemas: dict[type, int] = {}
+        self._foreign_schemas: dict[tuple[str, str], int] = {}
         self._channels: dict[str, int] = {}
         self.counts: dict[str, int] = {}
         self._last_flush = time.monotonic()
@@ -104,6 +107,24 @@ class McapRecorder:
         return cid
 
     # -- messages ----------------------------------------------------------------------------
+    def write_foreign(self, topic: str, schema_name: str, schema_encoding: str, schema_data: bytes,
+                      message_encoding: str, data: bytes, log_time_ns: int) -> None:
+        """Record a message of a channel that is not in the ICD (e.g. a Foxglove well-known type in
+        protobuf): the channel is registered with the given schema on first use."""
+        if self.closed:
+            raise ValueError(f"{self.path}: recorder is closed")
+        cid = self._channels.get(topic)
+        if cid is None:
+            key = (schema_name, schema_encoding)
+            sid = self._foreign_schemas.get(key)
+            if sid is None:
+                sid = self._foreign_schemas[key] = self._writer.register_schema(schema_name, schema_encoding, bytes(schema_data))
+            cid = self._channels[topic] = self._writer.register_channel(topic, message_encoding, sid)
+        self._writer.add_message(cid, log_time=int(log_time_ns), data=bytes(data), publish_time=int(log_time_ns), sequence=0)
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+        self._dirty = True
+        self.tick()
+
     def write(self, topic: str, payload: bytes, log_time_ns: int, publish_time_ns: int | None = None, sequence: int = 0) -> None:
         """Record an encoded payload (``publish_time_ns`` defaults to ``log_time_ns``)."""
         if self.closed:

@@ -56,6 +56,16 @@ def _add_log_arguments(parser) -> None:
     parser.add_argument("--after", action="append", default=[], metavar="SEGMENT",
                         help="an earlier segment of the same run (a logger that died): what it holds is not recorded again "
                              "(repeatable, in order)")
+    parser.add_argument("--log-time", choices=("mission", "receive"), default="mission",
+                        help="MCAP log_time of each message: its mission time, so Foxglove plays the mission back in "
+                        "order and evenly (default), or the time the logger received it")
+    parser.add_argument("--no-foxglove", action="store_true",
+                        help="record only the ICD channels, without the Foxglove scene, log and plot channels")
+    parser.add_argument("--live", action="store_true",
+                        help="also serve every channel over Foxglove's WebSocket protocol while recording")
+    parser.add_argument("--live-host", default="127.0.0.1", metavar="HOST", help="address of the live view (default 127.0.0.1)")
+    parser.add_argument("--live-port", type=int, default=8765, metavar="PORT",
+                        help="port of the live view (default 8765, Foxglove's; 0: any free port)")
     add_transport_arguments(parser)
 
 
@@ -76,6 +86,9 @@ def _log(args) -> int:
                 attachments=args.attach,
                 flush_interval_s=args.flush_interval,
                 after=args.after,
+                mission_time=args.log_time == "mission",
+                foxglove_channels=not args.no_foxglove,
+                live=(args.live_host, args.live_port) if args.live else None,
             )
     except OSError as exc:
         # the only file the logger writes is --out; an error from write() or flush() carries no

@@ -15,11 +15,15 @@ from tools.commands.arg_types import run_id_arg
 from tools.commands.common import add_scenario_arguments, new_run_id, scenario_from_args
 from tools.commands.outputs import check_output_dir, write_error_line
 from tools.launcher import DEFAULT_MAX_RESTARTS, Restart, RunFailed, launch, write_summary
+from fsw.transport.session import free_tcp_ports
 from tools.progress import advance_to, fsw_progress, progress_bar
 from tools.scenario import ScenarioConfig, resolve
 
 if TYPE_CHECKING:
     from ground.report.summary_types import RunEnding, RunSummary
+
+#: channels the ground adds for Foxglove (not ICD messages: nothing to summarise)
+FOXGLOVE_PREFIXES = ("/foxglove/", "/plot/")
 
 NAME = "run"
 HELP = "run simulator + FSW + ground logger as separate processes over Zenoh and report"
@@ -58,6 +62,13 @@ def add_arguments(p) -> None:
     p.add_argument("--plain-tcp", action="store_true",
                    help="plain TCP links without authentication (default: mutual TLS, access control and signed "
                         "telecommands and end-of-run statuses, with credentials made for this run and removed when it ends)")
+    g = p.add_argument_group("live view")
+    g.add_argument("--live", action="store_true",
+                   help="serve the run's channels (weights, residuals, 3-D scene, ...) over Foxglove's WebSocket protocol "
+                   "while it flies; open the printed ws:// address in Foxglove (Open connection)")
+    g.add_argument("--live-host", default="127.0.0.1", metavar="HOST", help="address to serve on (default 127.0.0.1)")
+    g.add_argument("--live-port", type=int, default=8765, metavar="PORT",
+                   help="port to serve on (default 8765, what Foxglove proposes; 0: any free port)")
 
 
 def with_budget(cfg: ScenarioConfig, mode: str | None, fraction: float | None, cpu_scale: float | None) -> ScenarioConfig:
@@ -147,7 +158,7 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
             print(f"navbank run: {mcap} was left incomplete; what it held is in {fixed}", file=sys.stderr)
             mcap = fixed
         # every topic but the measurements themselves (the simulator's end-of-run status counts them)
-        wanted = [t for t in mcap_counts(mcap) if t != "/sim/measurements"]
+        wanted = [t for t in mcap_counts(mcap) if t != "/sim/measurements" and not t.startswith(FOXGLOVE_PREFIXES)]
         messages = [(rec.topic, rec.message) for rec in read_messages(mcap, topics=wanted) if rec.message is not None]
         init = cfg.fsw.initial_state
         if init is None:
@@ -199,6 +210,14 @@ def run(args) -> int:
     check_output_dir(out)  # before anything starts: exit 2 for a directory we could not fill
     filters = ", ".join(f.name for f in cfg.fsw.bank.filters)
     print(f"navbank run {run_id}: scenario {cfg.name}, seed {seed}, filters {filters}; output {out}/", file=sys.stderr)
+    live = None
+    if args.live:
+        if not 0 <= args.live_port <= 65535:
+            raise UsageError("--live-port must be within 0..65535")
+        port = args.live_port or free_tcp_ports(1)[0]
+        live = (args.live_host, port)
+        print(f"navbank run {run_id}: live view on ws://{args.live_host}:{port} (Foxglove: Open connection, "
+              "Foxglove WebSocket)", file=sys.stderr)
     t0 = time.perf_counter()
     bar = None if args.quiet else progress_bar(cfg.sim.trajectory.span_days, desc="run", unit="day")
     echo = None if bar is None else _fsw_echo(bar)
@@ -208,7 +227,7 @@ def run(args) -> int:
     restarts: list[Restart] = []
     try:
         launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo, max_restarts=args.max_restarts, restarts=restarts,
-               authenticated=not args.plain_tcp)
+               authenticated=not args.plain_tcp, live=live)
         if bar is not None:
             advance_to(bar, bar.total)  # the last measurement may come a little before the span's end
     except RunFailed as exc:
