@@ -251,6 +251,7 @@ def run_logger(
                 "started_unix_ns": str(time.time_ns()),
                 "host": socket.gethostname(),
                 "producers": ",".join(producers),
+                "log_time": "mission" if mission_time else "receive",
             }
             run_info.update({str(k): v if isinstance(v, str) else json.dumps(v) for k, v in (metadata or {}).items()})
             rec.add_metadata("navbank.run", run_info)
@@ -309,7 +310,7 @@ def run_logger(
             )
             rec.add_metadata(
                 "navbank.logger",
-                {"ended_by": ended_by, "counts": result.counts, "unknown": result.unknown,
+                {"ended_by": ended_by, "elapsed_s": round(result.elapsed_s, 3), "counts": result.counts, "unknown": result.unknown,
                  "invalid": result.invalid, "gaps": result.gaps, "duplicates": result.duplicates,
                  "refused": result.refused,
                  "finished": list(finished)},

@@ -111,6 +111,8 @@ def test_logger_records_a_whole_run_and_ends_by_itself(tmp_path):
 
     assert is_complete(path)
     counts = summary(path)
+    # the Foxglove view of the truth (a transform each) and of the status changes (test_e2e_foxglove checks them)
+    assert counts.pop("/foxglove/transforms") == 30 and counts.pop("/foxglove/log") >= 2
     assert counts == {"/_invalid/sim/measurements": 1, "/fsw/budget": 500, "/fsw/status": 1, "/fsw/weights/chi2": 500,
                       "/sim/debug": 1, "/sim/measurements": n, "/sim/status": 2, "/sim/truth": 30}
     assert [x.message.seq for x in read_messages(path, "/sim/measurements")] == list(range(n))
@@ -118,7 +120,7 @@ def test_logger_records_a_whole_run_and_ends_by_itself(tmp_path):
     validators = {}
     with open(path, "rb") as f:
         for schema, channel, msg in make_reader(f).iter_messages():
-            if schema is None:
+            if schema is None or channel.topic.startswith("/foxglove/"):
                 continue
             assert channel.message_encoding == "json" and schema.encoding == "jsonschema"
             v = validators.get(schema.id)
@@ -146,7 +148,7 @@ def streaming_sim(cfg, run: str, rate_hz: float, duration_s: float, ready) -> No
 def _logger_cli(run: str, path: str, port: int) -> subprocess.Popen:
     return subprocess.Popen(
         [sys.executable, "-m", "tools.cli", "ground", "log", "--run-id", run, "--out", path, "--listen", f"tcp/127.0.0.1:{port}", "--no-wait-end",
-         "--flush-interval", "0.5"],
+         "--flush-interval", "0.5", "--log-time", "receive"],  # receive time: the lag to the kill is measured
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
 

@@ -7,6 +7,15 @@ from dataclasses import dataclass
 from typing import Any
 
 
+#: MCAP topics of the channels the ground derives from the ICD ones: not part of the record that
+#: replay re-sends or re-flies (a second logger derives them again).
+DERIVED_PREFIXES = ("/foxglove/", "/plot/")
+
+
+def is_derived(topic: str) -> bool:
+    return ("/" + topic.strip("/") + "/").startswith(DERIVED_PREFIXES) or topic.startswith(DERIVED_PREFIXES)
+
+
 @dataclass(frozen=True, slots=True)
 class ChannelSchema:
     """A channel's schema as MCAP stores it: name, schema encoding, schema data, message encoding."""

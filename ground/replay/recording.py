@@ -14,6 +14,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 
+from ground.foxglove.records import is_derived
 from ground.mcap_io.reader import is_complete, iter_channel_messages, read_attachments, read_metadata, summary
 from ground.mcap_io.recorder import INVALID_PREFIX
 
@@ -46,9 +47,12 @@ class RawMessage:
 
 
 def iter_raw(path: str | os.PathLike, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
-    """Every message of ``path`` (optionally only MCAP ``topics``) as :class:`RawMessage`."""
+    """Every message of ``path`` (optionally only MCAP ``topics``) as :class:`RawMessage`; without
+    ``topics``, the ICD record only (not the derived Foxglove channels)."""
     wanted = None if topics is None else {"/" + t.strip("/") for t in topics}
     for schema, channel, msg in iter_channel_messages(path, wanted, strict=False):
+        if wanted is None and is_derived(channel.topic):
+            continue  # the Foxglove view is made from the record, not part of it
         yield RawMessage(channel.topic, msg.log_time, msg.publish_time, msg.sequence, bytes(msg.data),
                          schema.name if schema is not None else "")
 
@@ -63,6 +67,8 @@ class RunInfo:
     complete: bool  # footer present
     config_text: str | None  # the attached scenario YAML, if any
     config_name: str  # its attachment name
+    mission_time: bool = False  # log_time is each message's mission time (else the logger's receive time)
+    wall_s: float | None = None  # how long the logger recorded, if it said
 
 
 def run_info(path: str | os.PathLike) -> RunInfo:
@@ -71,7 +77,8 @@ def run_info(path: str | os.PathLike) -> RunInfo:
     if not os.path.isfile(path):
         raise RecordingError(f"{path}: no such file")
     complete = is_complete(path)  # also checks the magic (McapReadError, a ValueError)
-    meta = read_metadata(path).get("navbank.run", {})
+    all_meta = read_metadata(path)
+    meta = all_meta.get("navbank.run", {})
     attachments = read_attachments(path)
     name = CONFIG_ATTACHMENT if CONFIG_ATTACHMENT in attachments else next(
         (n for n, (media, _) in attachments.items() if media == "application/yaml"), "")
@@ -81,5 +88,10 @@ def run_info(path: str | os.PathLike) -> RunInfo:
             text = attachments[name][1].decode("utf-8")
         except UnicodeDecodeError:
             raise RecordingError(f"{path}: attachment {name} is not UTF-8 text") from None
-    return RunInfo(path=path, run_id=meta.get("run_id", ""), counts=summary(path), complete=complete,
-                   config_text=text, config_name=name)
+    try:
+        wall_s: float | None = float(all_meta.get("navbank.logger", {})["elapsed_s"])
+    except (KeyError, ValueError):
+        wall_s = None
+    counts = {t: n for t, n in summary(path).items() if not is_derived(t)}
+    return RunInfo(path=path, run_id=meta.get("run_id", ""), counts=counts, complete=complete,
+                   config_text=text, config_name=name, mission_time=meta.get("log_time") == "mission", wall_s=wall_s)

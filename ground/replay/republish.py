@@ -120,6 +120,15 @@ def _last_status(payload: bytes) -> RunStatus | None:
         return None
 
 
+def _log_time_span_ns(path: str | os.PathLike) -> int:
+    """log_time span of the ICD record (the derived channels excluded) from one pass over it."""
+    lo = hi = None
+    for msg in iter_raw(path):
+        lo = msg.log_time_ns if lo is None else min(lo, msg.log_time_ns)
+        hi = msg.log_time_ns if hi is None else max(hi, msg.log_time_ns)
+    return 0 if lo is None or hi is None else hi - lo
+
+
 def republish(
     path: str | os.PathLike,
     run_id: str,
@@ -172,6 +181,10 @@ def republish(
 
         log0: int | None = None
         last_log = 0
+        # A recording stamped with mission time spans days: its timing is played evenly over as
+        # long as the logger recorded (rate 1), not in real mission time.
+        span_ns = _log_time_span_ns(path) if info.mission_time else 0
+        pace = info.wall_s / (span_ns / 1e9) if info.mission_time and info.wall_s and span_ns > 0 else 1.0
         done = 0
         next_progress = time.monotonic() + progress_every_s
         t_start = time.monotonic()
@@ -183,7 +196,7 @@ def republish(
                 log0 = msg.log_time_ns
             last_log = max(last_log, msg.log_time_ns)
             if rate > 0.0:
-                due = t_start + (msg.log_time_ns - log0) / 1e9 / rate
+                due = t_start + (msg.log_time_ns - log0) / 1e9 * pace / rate
                 wait = due - time.monotonic()
                 if wait > 0:
                     time.sleep(wait)

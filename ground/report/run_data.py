@@ -26,6 +26,7 @@ from typing import Any, Literal, NamedTuple, overload
 import numpy as np
 
 from fsw.interface import messages as m, topics
+from ground.report.nav_data import BPlaneTrace, ResidualTrace, bplane_traces, residual_traces
 
 DAY_S = 86400.0
 #: Epoch matching resolution between Estimate and Truth (seconds): t_s rounded to 1 ms.
@@ -114,6 +115,8 @@ class RunData:
     status: dict[str, m.RunStatus] = field(default_factory=dict)  # source -> last RunStatus
     hierarchy: dict[str, HierarchicalHistory] = field(default_factory=dict)  # networks that publish bank weights
     rqp: list[m.RqpReport] = field(default_factory=list)  # RQP parameter adaptations, in time order
+    residuals: dict[tuple[str, str], ResidualTrace] = field(default_factory=dict)  # (kind, source) -> pre-fit residuals
+    bplane: dict[str, BPlaneTrace] = field(default_factory=dict)  # estimate label -> B-plane history with truth
     skipped: int = 0
 
     @overload
@@ -443,6 +446,9 @@ def extract(messages: Iterable[Any], *, t0: float | None = None,
                 data.clock[label] = clock
     if by.get(topics.FSW_ANOMALY):
         data.anomaly = _anomaly(by[topics.FSW_ANOMALY])
+    data.residuals = residual_traces(by.get(topics.FSW_RESIDUALS, []))
+    data.bplane = bplane_traces({t.split("/", 2)[2]: msgs for t, msgs in by.items() if t.startswith(topics.FSW_BPLANE + "/")},
+                                by.get(topics.SIM_TRUTH, []))
     if by.get(topics.FSW_BUDGET):
         data.budget = _budget(by[topics.FSW_BUDGET])
     kinds: dict[str, list[m.Measurement]] = defaultdict(list)

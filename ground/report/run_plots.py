@@ -9,7 +9,8 @@
 * ``clock_phase_<filter>.png`` — clock phase error with its 1σ / 3σ bounds (Fig. 14);
 * ``anomaly_statistic.png`` — the detector's statistic against its threshold, flag shaded;
 * ``budget.png`` — frame utilisation and backlog of the executive;
-* ``measurements.png`` — which measurement kinds arrived when, coloured by station/target.
+* ``measurements.png`` — which measurement kinds arrived when, coloured by station/target;
+* residual and B-plane figures: see :mod:`ground.report.nav_plots`.
 
 Every figure is ~10×4 in at 120 dpi (the hierarchy figure ~2 in per panel) with days since the start of the run on the x axis. Each
 ``plot_*`` writes its PNG and returns the path, or returns the Figure when given no path.
@@ -24,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ground.report import figure as F
+from ground.report.nav_plots import write_nav_figures
 from ground.report.run_data import RunData, declared_epoch, extract
 
 #: Below this many points a trace is drawn with markers too (batch networks update rarely).
@@ -298,6 +300,7 @@ def write_run_figures(messages: Iterable[Any] | RunData, out_dir: str | Path, *,
         written.append(plot_budget(data, out / "budget.png"))
     if data.measurements:
         written.append(plot_measurements(data, out / "measurements.png"))
+    written += write_nav_figures(data.residuals, data.bplane, data.t0, out)
     return written
 
 

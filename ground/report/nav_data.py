@@ -1,0 +1,154 @@
+"""Navigation quality of a run from its telemetry: pre-fit residuals per kind and station, NIS
+statistics, and B-plane targeting against truth.
+
+The residuals are the FSW's own (``Residuals``: what the bank computed for the gating); the
+truth B-plane is computed on the ground from the recorded truth with the FSW's B-plane model
+(:mod:`fsw.models.bplane`) at the epochs of the estimates' B-plane messages.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from fsw.interface import messages as m
+from fsw.models.bplane import NotHyperbolic, bplane_jacobian
+
+
+@dataclass
+class ResidualTrace:
+    """Residuals of one measurement kind from one station/target; arrays (M samples, N filters, n comps)."""
+
+    kind: str
+    source: str
+    filters: tuple[str, ...]
+    t_s: np.ndarray
+    residual: np.ndarray
+    sigma: np.ndarray
+    normalised: np.ndarray
+    nis: np.ndarray
+    processed: np.ndarray
+
+
+@dataclass
+class BPlaneTrace:
+    """B-plane history of one estimate label, with truth where the recording has it (NaN otherwise)."""
+
+    label: str
+    t_s: np.ndarray
+    b_dot_r: np.ndarray
+    b_dot_t: np.ndarray
+    cov: np.ndarray  # (M, 2, 2) km²
+    periapsis_s: np.ndarray
+    periapsis_sigma_s: np.ndarray
+    true_b_dot_r: np.ndarray
+    true_b_dot_t: np.ndarray
+    true_periapsis_s: np.ndarray
+
+
+def residual_traces(messages: list[m.Residuals]) -> dict[tuple[str, str], ResidualTrace]:
+    """Residual samples grouped by (kind, source), in time order."""
+    groups: dict[tuple[str, str], list[m.ResidualSample]] = defaultdict(list)
+    filters: tuple[str, ...] = ()
+    for msg in messages:
+        filters = filters or msg.filters
+        if msg.filters != filters:
+            continue  # a bank cannot change its filters within a run; such a message is not ours to plot
+        for s in msg.samples:
+            groups[(s.kind, s.source)].append(s)
+    out = {}
+    for key, samples in sorted(groups.items()):
+        samples.sort(key=lambda s: s.t_s)
+        out[key] = ResidualTrace(
+            kind=key[0], source=key[1], filters=filters,
+            t_s=np.array([s.t_s for s in samples]),
+            residual=np.array([s.residual for s in samples], dtype=float),
+            sigma=np.array([s.sigma for s in samples], dtype=float),
+            normalised=np.array([s.normalised for s in samples], dtype=float),
+            nis=np.array([s.nis for s in samples], dtype=float),
+            processed=np.array([s.processed for s in samples], dtype=bool),
+        )
+    return out
+
+
+def nis_statistics(traces: dict[tuple[str, str], ResidualTrace]) -> dict[str, dict[str, dict[str, float]]]:
+    """Per kind and filter: mean NIS of the measurements the filter processed against its expected
+    value n (the kind's dimension), and the fraction outside the two-sided 95 % chi-square bounds."""
+    from scipy.stats import chi2
+
+    by_kind: dict[str, list[ResidualTrace]] = defaultdict(list)
+    for tr in traces.values():
+        by_kind[tr.kind].append(tr)
+    out: dict[str, dict[str, dict[str, float]]] = {}
+    for kind, trs in sorted(by_kind.items()):
+        n = trs[0].residual.shape[2]
+        lo, hi = chi2.ppf(0.025, n), chi2.ppf(0.975, n)
+        out[kind] = {}
+        for i, name in enumerate(trs[0].filters):
+            vals = np.concatenate([tr.nis[tr.processed[:, i], i] for tr in trs])
+            if vals.size == 0:
+                continue
+            out[kind][name] = {"count": float(vals.size), "dimension": float(n), "mean_nis": float(np.mean(vals)),
+                               "outside_95": float(np.mean((vals < lo) | (vals > hi)))}
+    return out
+
+
+def _key(t_s: float) -> float:
+    return round(float(t_s), 3)
+
+
+def bplane_traces(by_label: dict[str, list[m.BPlane]], truth: list[m.Truth]) -> dict[str, BPlaneTrace]:
+    """B-plane history per estimate label, each epoch paired with the truth recorded at it."""
+    states = {_key(t.t_s): t for t in truth}
+    true_cache: dict[float, tuple[float, float, float]] = {}
+
+    def true_at(t_s: float) -> tuple[float, float, float]:
+        k = _key(t_s)
+        if k not in true_cache:
+            tr = states.get(k)
+            val = (np.nan, np.nan, np.nan)
+            if tr is not None:
+                try:
+                    v, _ = bplane_jacobian(np.array(tr.position_km), np.array(tr.velocity_km_s))
+                    val = (float(v[0]), float(v[1]), float(t_s + v[2]))
+                except NotHyperbolic:
+                    pass
+            true_cache[k] = val
+        return true_cache[k]
+
+    out = {}
+    for label, msgs in sorted(by_label.items()):
+        msgs = sorted(msgs, key=lambda b: b.t_s)
+        truth_rows = np.array([true_at(b.t_s) for b in msgs], dtype=float).reshape(-1, 3)
+        out[label] = BPlaneTrace(
+            label=label, t_s=np.array([b.t_s for b in msgs]), b_dot_r=np.array([b.b_dot_r_km for b in msgs]),
+            b_dot_t=np.array([b.b_dot_t_km for b in msgs]),
+            cov=np.array([b.covariance_km2 for b in msgs], dtype=float).reshape(-1, 2, 2),
+            periapsis_s=np.array([b.periapsis_s for b in msgs]),
+            periapsis_sigma_s=np.array([b.periapsis_sigma_s for b in msgs]),
+            true_b_dot_r=truth_rows[:, 0], true_b_dot_t=truth_rows[:, 1], true_periapsis_s=truth_rows[:, 2],
+        )
+    return out
+
+
+def bplane_final(traces: dict[str, BPlaneTrace]) -> dict[str, dict[str, Any]]:
+    """The numbers a Mars-approach navigator reports, at each label's last B-plane epoch: B·R,
+    B·T, their 1σ, the errors against truth, and the closest-approach time error and 1σ."""
+    out: dict[str, dict[str, Any]] = {}
+    for label, tr in traces.items():
+        if not len(tr.t_s):
+            continue
+        i = -1
+        out[label] = {
+            "t_s": float(tr.t_s[i]), "b_dot_r_km": float(tr.b_dot_r[i]), "b_dot_t_km": float(tr.b_dot_t[i]),
+            "b_dot_r_sigma_km": float(np.sqrt(max(tr.cov[i, 0, 0], 0.0))),
+            "b_dot_t_sigma_km": float(np.sqrt(max(tr.cov[i, 1, 1], 0.0))),
+            "b_dot_r_error_km": float(tr.b_dot_r[i] - tr.true_b_dot_r[i]),
+            "b_dot_t_error_km": float(tr.b_dot_t[i] - tr.true_b_dot_t[i]),
+            "periapsis_error_s": float(tr.periapsis_s[i] - tr.true_periapsis_s[i]),
+            "periapsis_sigma_s": float(tr.periapsis_sigma_s[i]),
+        }
+    return out
