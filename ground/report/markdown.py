@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ground.report import campaign_data as C
+from ground.report.nav_data import bplane_final, nis_statistics
 from ground.report.run_data import DAY_S, RunData, hierarchy_means
 
 REPORT_FILE = "report.md"
@@ -53,6 +54,10 @@ def _figures(paths: Sequence[Path], out_dir: Path, captions: dict[str, str]) -> 
 
 RUN_CAPTIONS = {
     "weights_": "Gating-network weights",
+    "residuals_": "Pre-fit residuals with ±3σ",
+    "residual_histograms": "Normalised residuals against N(0, 1)",
+    "bplane_history": "B-plane targeting errors",
+    "bplane": "B-plane",
     "hierarchy_": "Hierarchical gating: bank and in-bank weights",
     "position_error_all": "Position error, all filters",
     "position_error_": "Position error vs RTPC",
@@ -124,6 +129,33 @@ def _rqp_lines(data: RunData) -> list[str]:
     return lines
 
 
+def _navigation_lines(data: RunData) -> list[str]:
+    """B-plane targeting at the last epoch and NIS statistics per kind and filter."""
+    lines: list[str] = []
+    final = bplane_final(data.bplane)
+    if final:
+        lines += ["## B-plane targeting (Mars mean equator)", ""]
+        rows = [[label, _num(f["b_dot_r_km"], ".1f"), _num(f["b_dot_t_km"], ".1f"), _num(f["b_dot_r_sigma_km"], ".2f"),
+                 _num(f["b_dot_t_sigma_km"], ".2f"), _num(f["b_dot_r_error_km"], "+.2f"), _num(f["b_dot_t_error_km"], "+.2f"),
+                 _num(f["periapsis_error_s"], "+.1f"), _num(f["periapsis_sigma_s"], ".1f")] for label, f in final.items()]
+        lines += _table(["solution", "B·R [km]", "B·T [km]", "σ B·R [km]", "σ B·T [km]", "B·R error [km]", "B·T error [km]",
+                         "closest-approach error [s]", "σ [s]"], rows)
+        last = max(f["t_s"] for f in final.values())
+        lines += ["", f"At the last B-plane epoch (day {_num(data.day(last), '.2f')}); errors against the truth's B-plane "
+                  "at the same epoch; T̂ = Ŝ×k̂/|Ŝ×k̂| with k̂ the Mars pole, R̂ = Ŝ×T̂. Entry-interface time is not "
+                  "computed; the closest-approach epoch is on the osculating hyperbola.", ""]
+    nis = nis_statistics(data.residuals)
+    if nis:
+        lines += ["## Normalised innovation squared (NIS)", ""]
+        rows = [[kind, name, _num(v["count"], ".0f"), _num(v["dimension"], ".0f"), _num(v["mean_nis"], ".3g"),
+                 _num(100 * v["outside_95"], ".1f") + " %"]
+                for kind, per in nis.items() for name, v in per.items()]
+        lines += _table(["kind", "filter", "processed", "expected mean (n)", "mean NIS", "outside 95 % χ² bounds"], rows)
+        lines += ["", "Pre-fit residuals of the measurements each filter processed; a consistent filter has mean "
+                  "NIS ≈ n and about 5 % outside the two-sided 95 % bounds of χ²(n).", ""]
+    return lines
+
+
 def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source: str, facts_from: str,
                  data: RunData | None = None) -> str:
     """Markdown text of a run report; ``data`` (the extracted messages) adds the hierarchical gating tables."""
@@ -180,6 +212,7 @@ def run_markdown(facts: dict, figures: Sequence[Path], out_dir: Path, *, source:
     if data is not None:
         lines += _hierarchy_lines(data)
         lines += _rqp_lines(data)
+        lines += _navigation_lines(data)
     pos = s.get("position_error_rms_km") or {}
     if pos:
         fin = s.get("position_error_final_km") or {}

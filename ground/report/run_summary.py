@@ -16,8 +16,9 @@ from typing import Any, Iterable
 import numpy as np
 
 from fsw.interface import messages as m, topics
+from ground.report.nav_data import bplane_final, bplane_traces, nis_statistics, residual_traces
 from ground.report.run_facts import anomaly_summary
-from ground.report.summary_types import (BudgetBlock, CommandEntry, FaultBlock, FaultEventRecord, GatingEntry,
+from ground.report.summary_types import (BPlaneEntry, NisEntry, BudgetBlock, CommandEntry, FaultBlock, FaultEventRecord, GatingEntry,
                                          MeasurementCounts, RunSummary)
 
 DAY_S = 86400.0
@@ -143,4 +144,28 @@ def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, 
         wall_time_s=wall_time_s,
         commands=tuple(served) or None,
         refused=refused,
+        bplane=_bplane_entries(by) or None,
+        nis=_nis_entries(by) or None,
     )
+
+
+def _finite(v: float) -> float | None:
+    return v if math.isfinite(v) else None
+
+
+def _bplane_entries(by: dict[str, list]) -> dict[str, BPlaneEntry]:
+    planes = {t.split("/", 2)[2]: [x for x in msgs if isinstance(x, m.BPlane)] for t, msgs in by.items()
+              if t.startswith(topics.FSW_BPLANE + "/")}
+    if not planes:
+        return {}
+    truth = [x for x in by.get(topics.SIM_TRUTH, []) if isinstance(x, m.Truth)]
+    final = bplane_final(bplane_traces(planes, truth))
+    return {label: BPlaneEntry(**{k: _finite(v) if k.endswith("error_km") or k.endswith("error_s") else v
+                                  for k, v in f.items()}) for label, f in final.items()}
+
+
+def _nis_entries(by: dict[str, list]) -> dict[str, dict[str, NisEntry]]:
+    stats = nis_statistics(residual_traces([x for x in by.get(topics.FSW_RESIDUALS, []) if isinstance(x, m.Residuals)]))
+    return {kind: {name: NisEntry(count=int(v["count"]), dimension=int(v["dimension"]), mean_nis=v["mean_nis"],
+                                  outside_95=v["outside_95"]) for name, v in per.items()}
+            for kind, per in stats.items()}

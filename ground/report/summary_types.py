@@ -185,6 +185,31 @@ class BudgetBlock(JsonRecord):
 
 
 @dataclass(frozen=True)
+class BPlaneEntry(JsonRecord):
+    """B-plane targeting of one solution at its last B-plane epoch (Mars mean equator)."""
+
+    t_s: float = spec(doc="epoch, TDB seconds past J2000", unit="s")
+    b_dot_r_km: float = spec(doc="B·R", unit="km")
+    b_dot_t_km: float = spec(doc="B·T", unit="km")
+    b_dot_r_sigma_km: float = spec(doc="1-sigma of B·R", unit="km")
+    b_dot_t_sigma_km: float = spec(doc="1-sigma of B·T", unit="km")
+    b_dot_r_error_km: float | None = spec(doc="B·R minus the truth's (null without truth)", unit="km")
+    b_dot_t_error_km: float | None = spec(doc="B·T minus the truth's (null without truth)", unit="km")
+    periapsis_error_s: float | None = spec(doc="closest-approach epoch minus the truth's", unit="s")
+    periapsis_sigma_s: float = spec(doc="1-sigma of the closest-approach epoch", unit="s")
+
+
+@dataclass(frozen=True)
+class NisEntry(JsonRecord):
+    """Normalised innovation squared of one filter on one measurement kind."""
+
+    count: int = spec(doc="measurements of the kind the filter processed")
+    dimension: int = spec(doc="measurement dimension n: the expected mean NIS")
+    mean_nis: float = spec(doc="mean NIS", unit="1")
+    outside_95: float = spec(doc="fraction outside the two-sided 95 % chi-square(n) bounds", unit="1")
+
+
+@dataclass(frozen=True)
 class RunFiles(JsonRecord):
     mcap: str = spec(doc="the run's MCAP recording")
     config: str = spec(doc="the run's exact configuration")
@@ -239,7 +264,7 @@ class RunSummary(JsonRecord):
     # monitors: campaign runs with monitors; run_id and files: summaries of ``navbank run``;
     # commands: runs that were commanded; status, reason: summaries of ``navbank run``
     _omit_when_none: ClassVar[frozenset[str]] = frozenset({"monitors", "run_id", "files", "commands", "status", "reason",
-                                                           "restarts", "refused"})
+                                                           "restarts", "refused", "bplane", "nis"})
 
     scenario: str = spec(doc="scenario name")
     seed: int = spec(doc="random seed of the run")
@@ -270,3 +295,5 @@ class RunSummary(JsonRecord):
         None, doc="how the run ended: complete; interrupted (SIGINT/SIGTERM); failed (a process failed, time ran out)")
     reason: str | None = spec(None, doc="why it did not complete, in one line")
     restarts: RestartsBlock | None = spec(None, doc="supervised restarts of a ``navbank run`` (written when restarts were enabled)")
+    bplane: dict[str, BPlaneEntry] | None = spec(None, doc="B-plane targeting per solution at the last B-plane epoch")
+    nis: dict[str, dict[str, NisEntry]] | None = spec(None, doc="NIS statistics per measurement kind and filter")
