@@ -50,14 +50,14 @@ def describe(summary: RunSummary) -> str:
         lines.append("B-plane (Mars mean equator) at the last epoch: B·R, B·T ± 1σ [km]; error vs truth [km]; "
                      "closest approach error ± 1σ [s]:")
         for label in [lb for lb in ("combined", "best") if lb in s.bplane] or list(s.bplane)[:2]:
-            b = s.bplane[label]
+            bp = s.bplane[label]
 
             def err(v: float | None, fmt: str) -> str:
                 return "-" if v is None else format(v, fmt)
 
-            lines.append(f"  {label:<9} {b.b_dot_r_km:9.1f} ± {b.b_dot_r_sigma_km:.1f}  {b.b_dot_t_km:9.1f} ± "
-                         f"{b.b_dot_t_sigma_km:.1f};  {err(b.b_dot_r_error_km, '+.1f')}, {err(b.b_dot_t_error_km, '+.1f')};  "
-                         f"{err(b.periapsis_error_s, '+.1f')} ± {b.periapsis_sigma_s:.1f}")
+            lines.append(f"  {label:<9} {bp.b_dot_r_km:9.1f} ± {bp.b_dot_r_sigma_km:.1f}  {bp.b_dot_t_km:9.1f} ± "
+                         f"{bp.b_dot_t_sigma_km:.1f};  {err(bp.b_dot_r_error_km, '+.1f')}, {err(bp.b_dot_t_error_km, '+.1f')};  "
+                         f"{err(bp.periapsis_error_s, '+.1f')} ± {bp.periapsis_sigma_s:.1f}")
     b = s.budget
     lines.append(f"budget ({b.mode}): {b.frames} frames, max utilisation {b.max_utilisation:.2f}, "
                  f"{b.overruns} overruns, max backlog {b.max_backlog}, final backlog {b.final_backlog}")

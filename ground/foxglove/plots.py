@@ -1,7 +1,8 @@
-"""Flat numeric channels for Foxglove's Plot panel: one number per field, no nested arrays.
+"""Flat numeric channels for Foxglove's Plot panel: one number per field, no nested arrays; names
+in topics and fields are reduced to letters, digits and '_' so message paths need no quoting.
 
 * ``/plot/residuals/<kind>/<source>``: the normalised pre-fit residual of every filter (``<filter>``
-  for one-component kinds, ``<filter>.<k>`` otherwise), one message per measurement;
+  for one-component kinds, ``<filter>_<k>`` otherwise), one message per measurement;
 * ``/plot/bplane/<filter>``: B·R, B·T, their 1σ and the closest-approach σ;
 * ``/plot/position_error/<label>``: estimate minus truth in km and the 3σ of the estimate, at
   the epochs where both exist.
@@ -29,7 +30,8 @@ def _rec(topic: str, schema: ChannelSchema, fields: dict[str, float], log_ns: in
 
 
 def _safe(name: str) -> str:
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
+    """A name Foxglove's message paths take unquoted (letters, digits, '_'), e.g. DSS-14 → DSS_14."""
+    return "".join(c if c.isalnum() or c == "_" else "_" for c in name)
 
 
 class PlotBuilder:
@@ -43,9 +45,9 @@ class PlotBuilder:
             fields: dict[str, float] = {"t_s": float(s["t_s"])}
             for name, row in zip(filters, s["normalised"]):
                 if len(row) == 1:
-                    fields[name] = float(row[0])
+                    fields[_safe(name)] = float(row[0])
                 else:
-                    fields.update({f"{name}.{k}": float(v) for k, v in enumerate(row)})
+                    fields.update({f"{_safe(name)}_{k}": float(v) for k, v in enumerate(row)})
             out.append(_rec(f"/plot/residuals/{_safe(s['kind'])}/{_safe(s['source'])}", RESIDUAL_SCHEMA, fields, log_ns))
         return out
 

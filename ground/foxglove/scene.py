@@ -49,8 +49,8 @@ def _pose(p_km: Any, q: fm.Quaternion | None = None) -> fm.Pose:
     return fm.Pose(position=fm.Vector3(x=x, y=y, z=z), orientation=q or fm.Quaternion(w=1.0))
 
 
-def quaternion_of(rot: np.ndarray) -> fm.Quaternion:
-    """Unit quaternion of a proper rotation matrix (Shepperd's method)."""
+def quaternion_of(rot: np.ndarray) -> tuple[float, float, float, float]:
+    """Unit quaternion (x, y, z, w) of a proper rotation matrix (Shepperd's method)."""
     m = rot
     tr = float(np.trace(m))
     if tr > 0:
@@ -66,10 +66,14 @@ def quaternion_of(rot: np.ndarray) -> fm.Quaternion:
         q[k] = (m[k, i] + m[i, k]) / s
         w = (m[k, j] - m[j, k]) / s
         x, y, z = q
-    return fm.Quaternion(x=float(x), y=float(y), z=float(z), w=float(w))
+    return float(x), float(y), float(z), float(w)
 
 
-def ellipsoid(cov_km2: np.ndarray, n_sigma: float = 3.0) -> tuple[np.ndarray, fm.Quaternion]:
+def _quat(xyzw: tuple[float, float, float, float]) -> fm.Quaternion:
+    return fm.Quaternion(x=xyzw[0], y=xyzw[1], z=xyzw[2], w=xyzw[3])
+
+
+def ellipsoid(cov_km2: np.ndarray, n_sigma: float = 3.0) -> tuple[np.ndarray, tuple[float, float, float, float]]:
     """Diameters [km] along the principal axes and the orientation of the ``n_sigma`` ellipsoid."""
     vals, vecs = np.linalg.eigh(0.5 * (cov_km2 + cov_km2.T))
     if np.linalg.det(vecs) < 0:
@@ -192,7 +196,7 @@ class SceneBuilder:
             p3 = np.diag(np.asarray(msg["sigma"][0:3], dtype=float) ** 2)
         size_km, q = ellipsoid(p3)
         size = [max(float(v), 1e-3) * M_PER_KM for v in size_km]
-        sphere = fm.SpherePrimitive(pose=_pose(pos, q), size=fm.Vector3(x=size[0], y=size[1], z=size[2]),
+        sphere = fm.SpherePrimitive(pose=_pose(pos, _quat(q)), size=fm.Vector3(x=size[0], y=size[1], z=size[2]),
                                     color=_color(0.3, 0.5, 1.0, 0.4))
         return self._entity(f"estimate/{self.estimate}", log_ns, spheres=[sphere],
                             metadata=[fm.KeyValuePair(key="ellipsoid", value="3-sigma position")])

@@ -160,8 +160,11 @@ def _bplane_entries(by: dict[str, list]) -> dict[str, BPlaneEntry]:
         return {}
     truth = [x for x in by.get(topics.SIM_TRUTH, []) if isinstance(x, m.Truth)]
     final = bplane_final(bplane_traces(planes, truth))
-    return {label: BPlaneEntry(**{k: _finite(v) if k.endswith("error_km") or k.endswith("error_s") else v
-                                  for k, v in f.items()}) for label, f in final.items()}
+    return {label: BPlaneEntry(
+        t_s=f["t_s"], b_dot_r_km=f["b_dot_r_km"], b_dot_t_km=f["b_dot_t_km"], b_dot_r_sigma_km=f["b_dot_r_sigma_km"],
+        b_dot_t_sigma_km=f["b_dot_t_sigma_km"], b_dot_r_error_km=_finite(f["b_dot_r_error_km"]),
+        b_dot_t_error_km=_finite(f["b_dot_t_error_km"]), periapsis_error_s=_finite(f["periapsis_error_s"]),
+        periapsis_sigma_s=f["periapsis_sigma_s"]) for label, f in final.items()}
 
 
 def _nis_entries(by: dict[str, list]) -> dict[str, dict[str, NisEntry]]:
