@@ -64,3 +64,16 @@ def test_core_reports_every_filtered_measurement_once_in_few_messages():
     assert all(r.filters == res[0].filters for r in res)
     bplanes = [msg for t, msg in run.messages if t == "fsw/bplane/combined"]
     assert len(bplanes) >= 3 and all(b.v_inf_km_s > 1.0 for b in bplanes)
+
+
+def test_campaign_report_pools_nis_over_runs_weighted_by_counts():
+    from ground.report.markdown import _campaign_nis_lines
+
+    def row(count: int, mean: float, outside: float) -> dict:
+        return {"summary": {"nis": {"range": {"radio": {"count": count, "dimension": 1, "mean_nis": mean,
+                                                         "outside_95": outside}}}}}
+
+    lines = _campaign_nis_lines([row(100, 1.0, 0.05), row(300, 2.0, 0.25), {"summary": {}}])
+    table = [ln for ln in lines if ln.startswith("| range")]
+    assert table == ["| range | radio | 2 | 400 | 1 | 1.75 | 1 – 2 | 20.0 % |"]
+    assert _campaign_nis_lines([{"summary": {"nis": None}}]) == []

@@ -267,6 +267,7 @@ def campaign_markdown(camp: C.Campaign, figures: Sequence[Path], out_dir: Path) 
             lines += _table(["case", "runs"] + mw.filters,
                             [[c, int(mw.n[i])] + [_num(mw.mean[i, f], ".4f") for f in range(len(mw.filters))]
                              for i, c in enumerate(mw.cases)]) + [""]
+    lines += _campaign_nis_lines(rows)
     if camp.failed:
         lines += ["## Failed runs", ""]
         lines += _table(["id", "cell", "status", "error"],
@@ -275,6 +276,39 @@ def campaign_markdown(camp: C.Campaign, figures: Sequence[Path], out_dir: Path) 
     if figures:
         lines += ["## Figures", ""] + _figures(figures, out_dir, CAMPAIGN_CAPTIONS)
     return "\n".join(lines).rstrip() + "\n"
+
+
+def _campaign_nis_lines(rows: list[dict]) -> list[str]:
+    """NIS per measurement kind and filter over the campaign's runs that sent residuals: the mean
+    NIS of all processed measurements (runs weighted by their counts), its spread over runs, and
+    the fraction outside the 95 % chi-square bounds."""
+    acc: dict[tuple[str, str], list[tuple[float, float, float, float]]] = {}
+    for r in rows:
+        for kind, per in ((r.get("summary") or {}).get("nis") or {}).items():
+            for name, v in per.items():
+                try:
+                    acc.setdefault((kind, name), []).append(
+                        (float(v["count"]), float(v["dimension"]), float(v["mean_nis"]), float(v["outside_95"])))
+                except (KeyError, TypeError, ValueError):
+                    continue
+    if not acc:
+        return []
+    trows = []
+    for (kind, name), vals in sorted(acc.items()):
+        counts = [c for c, _, _, _ in vals]
+        total = sum(counts)
+        if total <= 0:
+            continue
+        mean = sum(c * m_ for c, _, m_, _ in vals) / total
+        outside = sum(c * o for c, _, _, o in vals) / total
+        per_run = sorted(m_ for _, _, m_, _ in vals)
+        trows.append([kind, name, len(vals), _num(total, ".0f"), _num(vals[0][1], ".0f"), _num(mean, ".3g"),
+                      f"{_num(per_run[0], '.3g')} – {_num(per_run[-1], '.3g')}", _num(100 * outside, ".1f") + " %"])
+    lines = ["## Normalised innovation squared (NIS)", ""]
+    lines += _table(["kind", "filter", "runs", "processed", "expected mean (n)", "mean NIS", "run means (min – max)",
+                     "outside 95 % χ² bounds"], trows)
+    return lines + ["", "Pre-fit residuals of the measurements each filter processed, in the runs whose scenario sends "
+                        "residual telemetry (`fsw.telemetry.residuals_every_s`).", ""]
 
 
 def _error_text(err: Any) -> str:
