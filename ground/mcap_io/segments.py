@@ -19,6 +19,7 @@ from mcap.writer import CompressionType, Writer
 
 from fsw.interface import codec
 from fsw.interface.messages import RunStatus
+from ground.foxglove.records import is_derived
 from ground.mcap_io.reader import StreamResult, iter_records
 from ground.mcap_io.recorder import INVALID_PREFIX
 
@@ -42,8 +43,8 @@ def recorded(paths: Iterable[str | os.PathLike[str]]) -> Recorded:
                 channels[record.id] = record.topic
             elif isinstance(record, Message):
                 topic = channels.get(record.channel_id)
-                if topic is None or topic.startswith(INVALID_PREFIX):
-                    continue  # what did not decode was never counted as taken
+                if topic is None or topic.startswith(INVALID_PREFIX) or is_derived(topic):
+                    continue  # what did not decode was never counted as taken; derived channels never were on the bus
                 name = topic.lstrip("/")
                 out.sequences.setdefault(name, []).append(record.sequence)
                 if name.endswith("/status"):
