@@ -8,11 +8,15 @@ bursts a run produces, hence the larger default here.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 from ground.foxglove.records import ChannelSchema
 
 DEFAULT_BACKLOG = 200_000
+#: How long a closing server lets its clients take what is still queued for them (a run's last
+#: messages are logged in a burst just before the logger closes).
+CLOSE_LINGER_S = 1.0
 
 
 class LiveView:
@@ -48,4 +52,5 @@ class LiveView:
         self.sent += 1
 
     def close(self) -> None:
+        time.sleep(CLOSE_LINGER_S)
         self._server.stop()
