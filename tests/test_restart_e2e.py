@@ -22,6 +22,7 @@ import pytest
 from mcap.reader import make_reader
 
 from fsw.core.checkpoint import CheckpointError, read_header
+from ground.foxglove.records import is_derived
 from ground.mcap_io.reader import read_messages
 from fsw.interface import codec
 from fsw.interface.messages import RunStatus
@@ -176,14 +177,16 @@ def test_a_killed_logger_is_restarted_and_the_recording_reads_with_the_plain_mca
         stats = reader.get_summary().statistics
         for _, channel, message in reader.iter_messages():
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
-            json.loads(message.data)
+            if not is_derived(channel.topic):  # the Foxglove view's channels are protobuf
+                json.loads(message.data)
     assert sum(counts.values()) == stats.message_count == sum(s["messages"] for s in restarts["segments"])
     print(f"plain mcap reader: {stats.message_count} messages; {counts}")
     # each (topic, sequence number) once; what is missing is what the summary states as lost
     with open(out / "run.mcap", "rb") as f:
         seen: dict[str, list[int]] = {}
         for _, channel, message in make_reader(f).iter_messages():
-            seen.setdefault(channel.topic, []).append(message.sequence)
+            if not is_derived(channel.topic):  # each logger segment derives its own view
+                seen.setdefault(channel.topic, []).append(message.sequence)
     assert all(len(set(v)) == len(v) for v in seen.values())
     # the producers' final counters are in the recording (from their drain queries if their
     # messages went by while no logger was up), and what they announced is recorded or stated lost
