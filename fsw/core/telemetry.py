@@ -80,10 +80,9 @@ def residual_sample(rec: BankRecord, source: str) -> m.ResidualSample:
         norm = np.where(sigma > 0.0, rec.residual / np.where(sigma > 0.0, sigma, 1.0), 0.0)
     return m.ResidualSample(
         t_s=float(rec.t), seq=int(rec.seq), kind=rec.kind, source=source,
-        residual=tuple(tuple(float(v) for v in row) for row in rec.residual),
-        sigma=tuple(tuple(float(v) for v in row) for row in sigma),
-        normalised=tuple(tuple(float(v) for v in row) for row in norm),
-        nis=tuple(float(c) for c in rec.chi2), processed=tuple(bool(p) for p in rec.processed),
+        residual=tuple(map(tuple, np.asarray(rec.residual, dtype=float).tolist())),
+        sigma=tuple(map(tuple, sigma.tolist())), normalised=tuple(map(tuple, norm.tolist())),
+        nis=tuple(np.asarray(rec.chi2, dtype=float).tolist()), processed=tuple(np.asarray(rec.processed, dtype=bool).tolist()),
     )
 
 

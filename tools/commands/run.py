@@ -158,7 +158,10 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
             print(f"navbank run: {mcap} was left incomplete; what it held is in {fixed}", file=sys.stderr)
             mcap = fixed
         # every topic but the measurements themselves (the simulator's end-of-run status counts them)
-        wanted = [t for t in mcap_counts(mcap) if t != "/sim/measurements" and not t.startswith(FOXGLOVE_PREFIXES)]
+        # nor the residuals: decoding them strictly costs seconds, and their NIS statistics are
+        # the report's (navbank report) and the campaigns' (in-process summaries)
+        wanted = [t for t in mcap_counts(mcap)
+                  if t not in ("/sim/measurements", "/fsw/residuals") and not t.startswith(FOXGLOVE_PREFIXES)]
         messages = [(rec.topic, rec.message) for rec in read_messages(mcap, topics=wanted) if rec.message is not None]
         init = cfg.fsw.initial_state
         if init is None:
