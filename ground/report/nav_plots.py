@@ -45,11 +45,12 @@ def plot_residuals(tr: ResidualTrace, t0: float, path: Path | None = None) -> An
             ax.fill_between(days[order], -sig3[order], sig3[order], color=color, alpha=0.15, linewidth=0, label=label3)
             done = tr.processed[:, i]
             comp = f" [{k}]" if n_c > 1 else ""
-            ax.plot(days[done], tr.residual[done, i, k], markers[k % 4], markersize=2.5, color=color,
-                    label=f"processed{comp}")
+            if np.any(done):
+                ax.plot(days[done], tr.residual[done, i, k], markers[k % 4], markersize=2.5, color=color,
+                        label=f"processed{comp}")
             if np.any(~done):
-                ax.plot(days[~done], tr.residual[~done, i, k], markers[k % 4], markersize=2.5, markerfacecolor="none",
-                        color=color, alpha=0.5, label=f"not processed{comp}")
+                ax.plot(days[~done], tr.residual[~done, i, k], markers[k % 4], markersize=3.5, markerfacecolor="none",
+                        color=color, alpha=0.6, label=f"not processed{comp}")
         inside = float(np.mean(np.abs(tr.normalised[:, i, :]) <= 3.0)) if len(days) else float("nan")
         ax.set_ylabel(f"{name}\n[{_unit(tr.kind)}]")
         ax.set_title(f"{name}: {100 * inside:.1f} % of residual components within ±3σ", fontsize=9, loc="left")
