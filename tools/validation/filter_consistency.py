@@ -9,14 +9,10 @@ one filter (default ``fused``):
 * the NIS per measurement kind: the sum of z̄ᵀS⁻¹z̄ over the processed measurements divided by
   the summed dimensions (1 when consistent), with its 95 % band.
 
-Run: ``python -m tools.validation.filter_consistency --seeds 20 --workers 2 --out FILE.json``.
+Run: ``navbank consistency --seeds 20 --out FILE.json``.
 """
 
 from __future__ import annotations
-
-import argparse
-import json
-import sys
 
 import numpy as np
 
@@ -49,24 +45,8 @@ def summarize(flights: list[Flight], name: str = "fused", skip_epochs: int = 1) 
     return out
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--seeds", type=int, default=20)
-    p.add_argument("--first-seed", type=int, default=1001)
-    p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--scenario", default="insight-approach")
-    p.add_argument("--filter", default="fused")
-    p.add_argument("--out", default=None)
-    a = p.parse_args(argv)
-    flights = monte_carlo(range(a.first_seed, a.first_seed + a.seeds), workers=a.workers, scenario=a.scenario)
-    res = summarize(flights, a.filter)
-    text = json.dumps(res, indent=2)
-    if a.out:
-        with open(a.out, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
-    sys.stdout.write(text + "\n")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+def measure(seeds: int, first_seed: int = 1001, workers: int = 2, scenario: str = "insight-approach",
+            name: str = "fused") -> dict:
+    """Fly ``seeds`` nominal runs from ``first_seed`` and summarise filter ``name``."""
+    flights = monte_carlo(range(first_seed, first_seed + seeds), workers=workers, scenario=scenario)
+    return summarize(flights, name)
