@@ -104,3 +104,12 @@ def test_unknown_station_rejected():
         stations.station("arecibo")
     with pytest.raises(stations.StationError):
         stations.elevation("dss14", 0.0, np.array([1.0, 2.0]))
+
+
+def test_station_velocity_is_smooth_through_a_leap_second():
+    # UT1-UTC steps by 1 s at 1997-07-01; the ERA rate must come from UT1-TAI, which does not
+    t = utc_iso_to_tdb("1997-06-30T23:59:30") + np.array([0.0, 20.0, 40.0, 60.0, 80.0])
+    _, v = stations.station_state_icrf("dss14", t)
+    speed = np.linalg.norm(v, axis=1)
+    assert np.ptp(speed) < 1e-9  # km/s
+    assert abs(earth.ut1_rate(t[2])) < 1e-7

@@ -48,25 +48,42 @@ def _uploaded_eop() -> tuple[np.ndarray, np.ndarray, list[tuple[float, float]]]:
     return u, cols, spans
 
 
-def uploaded_eop(t_tdb) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """UT1-UTC [s], pole x and y [rad] at t_tdb from the uploaded table; zeros outside it.
-
-    UT1-UTC is interpolated as UT1-TAI so that a leap second between samples does not smear.
-    """
+def _eop_and_ut1_tai(t_tdb) -> tuple[np.ndarray, np.ndarray]:
+    """([UT1-UTC, x, y] (N, 3), UT1-TAI (N,)) at t_tdb; UT1-TAI is NaN outside the uploaded spans."""
     u_q = np.atleast_1d(np.asarray(tdb_to_naive_utc(t_tdb), dtype=float))
     u, cols, spans = _uploaded_eop()
     tai_rows = np.asarray(naive_utc_to_tai(u), dtype=float) - u  # TAI-UTC of each sample
     dat_q = np.asarray(naive_utc_to_tai(u_q), dtype=float) - u_q
     out = np.zeros((u_q.size, 3))
+    ut1_tai = np.full(u_q.size, np.nan)
     for lo, hi in spans:
         inside = (u_q >= lo) & (u_q <= hi)
         if inside.any():
             sel = (u >= lo) & (u <= hi)
-            ut1_tai = np.interp(u_q[inside], u[sel], cols[sel, 0] - tai_rows[sel])
-            out[inside, 0] = ut1_tai + dat_q[inside]
+            ut1_tai[inside] = np.interp(u_q[inside], u[sel], cols[sel, 0] - tai_rows[sel])
+            out[inside, 0] = ut1_tai[inside] + dat_q[inside]
             out[inside, 1] = np.interp(u_q[inside], u[sel], cols[sel, 1])
             out[inside, 2] = np.interp(u_q[inside], u[sel], cols[sel, 2])
+    return out, ut1_tai
+
+
+def uploaded_eop(t_tdb) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """UT1-UTC [s], pole x and y [rad] at t_tdb from the uploaded table; zeros outside it.
+
+    UT1-UTC is interpolated as UT1-TAI so that a leap second between samples does not smear.
+    """
+    out, _ = _eop_and_ut1_tai(t_tdb)
     return out[:, 0], out[:, 1], out[:, 2]
+
+
+def ut1_rate(t_tdb) -> np.ndarray:
+    """d(UT1-TAI)/dt [s/s] of the uploaded table (0 outside it): the slope, not smeared by a leap second."""
+    dh = 60.0
+    t = np.asarray(t_tdb, dtype=float)
+    _, hi = _eop_and_ut1_tai(t + dh)
+    _, lo = _eop_and_ut1_tai(t - dh)
+    rate = (hi - lo) / (2 * dh)
+    return np.where(np.isfinite(rate), rate, 0.0).reshape(np.shape(t))
 
 _UAS = math.pi / (180.0 * 3600.0 * 1e6)  # microarcsecond in rad
 _AS = math.pi / (180.0 * 3600.0)
@@ -152,8 +169,7 @@ def itrs_to_gcrs_state(r_itrs_km, t_tdb, dut1_s: float | None = None) -> tuple[n
     dR[..., 1, 1] = -s
     omega = 2.0 * np.pi * ERA_RATE_CYCLES_PER_UT1_DAY / SECONDS_PER_DAY
     if dut1_s is None:  # UT1 runs slow by the length-of-day excess (~1e-8): the uploaded slope
-        dh = 60.0
-        omega = omega * (1.0 + (uploaded_eop(t + dh)[0] - uploaded_eop(t - dh)[0]) / (2 * dh)).reshape(np.shape(t))
+        omega = omega * (1.0 + ut1_rate(t))
         dR *= omega[..., None, None]
     else:
         dR *= omega

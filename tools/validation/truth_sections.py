@@ -30,10 +30,12 @@ MODELS_DISCUSSION = """\
 What the filter does with them. The Earth-orientation residual (2 cm, 0.001 mm/s) is 2 % of the
 range noise (1 m) and 1 % of the Doppler noise (0.1 mm/s); the filter leaves it in the measurement
 noise, and the consistency figures below show that is enough. It was not when the onboard EOP were
-a weekly upload (0.33 m, 0.024 mm/s): the fused filter, which averages thousands of Doppler points
-to far below one point's noise, then had a 6-dof NEES of 18.8 over two seeds against 4.1 with the
-onboard Earth model in both places, so a weekly upload would need consider parameters (station
-and UT1 errors) before it could be flown. The TDB-TT truncation (3 us) moves the stations by
+a weekly upload (0.33 m, 0.024 mm/s; measured while truth's ERA rate still left out the length of
+day, another 0.004 mm/s): the fused filter, which averages thousands of Doppler points to far below
+one point's noise, then had a 6-dof NEES of 18.8 over two seeds against 4.1 with the onboard Earth
+model in both places — errors that small but that systematic need consider parameters (station
+and UT1 errors) or a daily upload. With Pathfinder's 0.01 mm/s Doppler the residual is 17 % of
+the noise. The TDB-TT truncation (3 us) moves the stations by
 1.4 mm through UT1. The moon ephemeris is uploaded data in both places, so its difference is the
 two codes' (0.15 m; the 0.8 m/s of Phobos is the precession the onboard velocity leaves out,
 < 3 m through light time); the real ephemeris error of the published elements against the moons
