@@ -51,7 +51,16 @@ dispersion after the last ground synchronisation (0.1 us; it was 1 us) with the 
 range-bias state assumes (the state had no counterpart in truth). With those, and the Doppler
 converted with the uplink carrier, the fused filter's NEES and NIS sit at their dimension; the
 previous figures over 5 seeds (1,080 hourly epochs) were position 1.78, velocity 2.70, 6-dof
-4.45 with 26 % of epochs below the lower 95 % bound."""
+4.45 with 26 % of epochs below the lower 95 % bound. The other filters of the bank, over seeds
+1-20 (the set `tests/test_consistency_insight.py` flies): 6-dof NEES radio-only 6.85, optical-only
+5.81, fused 6.24, all inside the band; position inside the 3-D 3-sigma ellipsoid at 99.7 %,
+99.2 % and 99.96 % of the pooled epochs (99.73 % expected).
+
+A consistent filter is also more often caught outside 3 sigma than a conservative one: over
+thousands of Doppler points the radio solution's plane-of-sky position rests on the stations'
+geometry, and a station or UT1 error of 2 cm (3 nrad) is 0.5 km at 1 AU, about half the radio-only
+filter's sigma before the approach — the size of error real orbit determination carries as station
+location and Earth-orientation consider covariance, which the onboard filter does not."""
 
 
 def model_differences_section(rows: list[list[str]] | None = None) -> Section:
