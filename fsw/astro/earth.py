@@ -169,8 +169,8 @@ def itrs_to_gcrs_state(r_itrs_km, t_tdb, dut1_s: float | None = None) -> tuple[n
     dR[..., 1, 1] = -s
     omega = 2.0 * np.pi * ERA_RATE_CYCLES_PER_UT1_DAY / SECONDS_PER_DAY
     if dut1_s is None:  # UT1 runs slow by the length-of-day excess (~1e-8): the uploaded slope
-        omega = omega * (1.0 + ut1_rate(t))
-        dR *= omega[..., None, None]
+        omega_t = omega * (1.0 + ut1_rate(t))
+        dR *= omega_t[..., None, None]
     else:
         dR *= omega
     h = 3600.0  # Q varies over >= 5.5 days; a central difference over +-1 h is exact enough
