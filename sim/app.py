@@ -16,7 +16,7 @@ import time
 from typing import Callable, Sequence
 
 import fsw.transport as tp
-from fsw.astro.time import tdb_to_unix
+from sim.truth.timescales import tdb_to_unix
 from fsw.interface import topics
 from fsw.interface.messages import Measurement, RunState, RunStatus, Stamp
 from sim.resend import RESEND_FROM, RESENT, ResendingPublisher, Rewind

@@ -20,7 +20,7 @@ from typing import Iterator, cast
 
 import numpy as np
 
-from fsw.astro.time import tdb_to_unix
+from sim.truth.timescales import tdb_to_unix
 from fsw.interface import topics
 from fsw.interface.messages import FaultEvent, Measurement, Stamp, Truth
 from sim.clock import ClockTruth, simulate_clock

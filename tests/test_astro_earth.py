@@ -22,7 +22,7 @@ def test_era_at_j2000_and_at_entry():
     # 2018-11-26T19:47:00 UTC, UT1 = UTC: JD 2458448.5 + 19h47m.
     du = Fraction(24584485, 10) - 2451545 + Fraction(19 * 3600 + 47 * 60, 86400)
     t = utc_iso_to_tdb("2018-11-26T19:47:00")
-    assert earth.earth_rotation_angle(t) == pytest.approx(_era_by_hand(du), abs=1e-10)
+    assert earth.earth_rotation_angle(t, dut1_s=0.0) == pytest.approx(_era_by_hand(du), abs=1e-10)
 
 
 def test_cip_against_iau1976_precession_and_1980_nutation():
@@ -93,7 +93,7 @@ def test_station_state_mars_adds_earth():
     t = utc_iso_to_tdb("2018-11-20T00:00:00")
     ps, vs = stations.station_state_mars("madrid", t)
     pe, ve = eph.state("earth", t, "mars")
-    assert np.linalg.norm(ps - pe) == pytest.approx(np.linalg.norm(stations.station("madrid").itrs_km), rel=1e-12)
+    assert np.linalg.norm(ps - pe) == pytest.approx(np.linalg.norm(stations.station("madrid").itrs_at(t)), rel=1e-12)
     tab = eph.table(t - 86400, t + 86400, bodies=("earth",))
     pt, _ = stations.station_state_mars("madrid", t, ephemeris=tab)
     assert np.allclose(pt, ps, atol=1e-6, rtol=0)
@@ -104,3 +104,12 @@ def test_unknown_station_rejected():
         stations.station("arecibo")
     with pytest.raises(stations.StationError):
         stations.elevation("dss14", 0.0, np.array([1.0, 2.0]))
+
+
+def test_station_velocity_is_smooth_through_a_leap_second():
+    # UT1-UTC steps by 1 s at 1997-07-01; the ERA rate must come from UT1-TAI, which does not
+    t = utc_iso_to_tdb("1997-06-30T23:59:30") + np.array([0.0, 20.0, 40.0, 60.0, 80.0])
+    _, v = stations.station_state_icrf("dss14", t)
+    speed = np.linalg.norm(v, axis=1)
+    assert np.ptp(speed) < 1e-9  # km/s
+    assert abs(earth.ut1_rate(t[2])) < 1e-7

@@ -40,7 +40,8 @@ def test_gm_constants_match_de421_header(eph):
     assert c.GM_JUPITER_SYSTEM == pytest.approx(eph.constant("GM5") * k, rel=1e-9)
     assert c.GM_EARTH_MOON == pytest.approx(eph.constant("GMB") * k, rel=1e-9)
     assert c.GM_EARTH / c.GM_MOON == pytest.approx(eph.constant("EMRAT"), rel=1e-9)
-    assert c.MHZ_TO_KM_S == pytest.approx(3.569e-8, rel=1e-3)
+    # one-way uplink Doppler: c / 7.15 GHz per mHz (the 8.4 GHz downlink carrier would give 3.569e-8)
+    assert c.MHZ_TO_KM_S == pytest.approx(4.193e-8, rel=1e-3)
 
 
 def test_velocity_is_derivative_of_position(eph):

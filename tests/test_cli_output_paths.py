@@ -80,6 +80,7 @@ CASES = [
     ("validation-report", ["validation-report", "--campaigns", "."], "--out", "afile/docs"),
     ("replay", ["replay", "empty.mcap", "--rerun"], "--json", "afile/diff.json"),
     ("calibrate", ["calibrate", "--scenario", "short.yaml", "--seeds", "1"], "--out-dir", "afile/cal"),
+    ("consistency", ["consistency", "--scenario", "short.yaml", "--seeds", "1"], "--out", "afile/c.json"),
 ]
 
 

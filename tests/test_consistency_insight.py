@@ -13,8 +13,11 @@ written independently of the filter's models. Checked:
   chi-squares over the R runs is χ² with the summed measurement dimensions: its per-dimension
   average must lie in that distribution's 95 % interval, and so must the average of each
   measurement kind and of each day;
-* each filter's position error inside its 3σ in ≥ 99 % of the epochs of one run, both as the
-  RTPC 3σ of Lubey & Ely 2022 Figs. 3–5 and as the (stricter) 3-D 3σ ellipsoid;
+* each filter's position error inside its 3σ in ≥ 99 % of the epochs: as the RTPC 3σ of
+  Lubey & Ely 2022 Figs. 3–5 in one run, and as the (stricter) 3-D 3σ ellipsoid (99.73 % for a
+  consistent filter) over the epochs of all runs pooled — one run's epochs are so correlated that
+  a consistent filter leaves a single run below 99 % in about one run in ten (measured: 2 of 20
+  radio-only runs, 3 of 20 optical-only), while a conservative one never does;
 * Lubey & Ely 2022 Figs. 3–5: fused RTPC below radio-only and optical-only for most of the arc, and the
   optical-only RTPC falling by more than 10× over the last three days;
 * every filter's covariance symmetric positive definite after each of the run's measurements.
@@ -106,8 +109,8 @@ def test_each_filter_position_error_inside_3_sigma(flights):
     ellipsoid = chi2_dist.ppf(chi2_dist.cdf(9.0, 1), 3)  # 3σ in 3-D: 99.73 % of χ²_3
     for i, name in enumerate(f.names):
         in_rtpc = np.mean(err[i] <= 3.0 * rtpc[i])
-        in_ellipsoid = np.mean(f.nees(slice(0, 3))[i] <= ellipsoid)
-        _report(f"{name} position inside 3σ", f"RTPC {in_rtpc:.4f}, ellipsoid {in_ellipsoid:.4f}")
+        in_ellipsoid = np.mean(np.concatenate([fl.nees(slice(0, 3))[i] for fl in flights]) <= ellipsoid)
+        _report(f"{name} position inside 3σ", f"RTPC {in_rtpc:.4f} (seed {f.seed}), ellipsoid {in_ellipsoid:.4f} (all runs)")
         assert in_rtpc >= 0.99, name
         assert in_ellipsoid >= 0.99, name
 

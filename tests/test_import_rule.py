@@ -23,6 +23,11 @@ NAVBANK = {"fsw", "sim", "ground", "tools"}
 ANY = None  # any third-party library
 
 
+SHARED_ASTRO = ("fsw.astro.constants", "fsw.astro.ephemeris", "fsw.astro.frames")
+ONBOARD_MODELS = ("fsw.astro.time", "fsw.astro.earth", "fsw.astro.stations", "fsw.astro.moons", "fsw.astro.mars",
+                  "fsw.astro.asteroids")
+
+
 @dataclass(frozen=True)
 class Layer:
     package: str  # directory, e.g. "fsw/interface"
@@ -36,7 +41,9 @@ LAYERS = (
     Layer("fsw/transport", ("fsw.transport", "fsw.interface"), ("numpy", "zenoh")),
     Layer("fsw/astro", ("fsw.astro", "fsw.interface"), ANY),
     Layer("fsw", ("fsw",), ANY, excluding=("fsw/interface", "fsw/transport", "fsw/astro")),
-    Layer("sim", ("sim", "fsw.interface", "fsw.transport", "fsw.astro"), ANY),
+    # the simulator flies its own truth models (sim/truth); of fsw.astro it shares only what is not
+    # a model: nature's and defined constants, the DE421 data reader and rotation algebra
+    Layer("sim", ("sim", "fsw.interface", "fsw.transport", *SHARED_ASTRO), ANY),
     Layer("ground", ("ground", "fsw"), ANY),
     Layer("tools", ("tools", "fsw", "sim", "ground"), ANY),
 )
@@ -143,3 +150,25 @@ def test_the_rule_checker_catches_a_violation(tmp_path, monkeypatch):
     assert len(_violations(fsw_rest)) == 2
     interface = next(layer for layer in LAYERS if layer.package == "fsw/interface")
     assert len(_violations(interface)) == 2  # zenoh, fsw.filters
+
+
+def test_shared_astro_modules_hold_no_onboard_model():
+    # what the simulator may share with the FSW must not itself reach an onboard model
+    for mod in SHARED_ASTRO:
+        path = ROOT / (mod.replace(".", "/") + ".py")
+        reached = [name for _, name in _imports(path) if _under(name, *ONBOARD_MODELS)]
+        assert reached == [], f"{mod} imports onboard models {reached}"
+    assert set(ONBOARD_MODELS) | set(SHARED_ASTRO) == {
+        f"fsw.astro.{p.stem}" for p in (ROOT / "fsw/astro").glob("*.py") if p.stem != "__init__"}
+
+
+def test_the_simulator_may_not_fly_onboard_models(tmp_path, monkeypatch):
+    (tmp_path / "sim").mkdir()
+    (tmp_path / "sim" / "bad.py").write_text(
+        "from fsw.astro.earth import itrs_to_gcrs_state\nfrom fsw.astro import moons\nimport fsw.astro.time\n"
+        "from fsw.astro.constants import C_KM_S\nfrom fsw.astro.ephemeris import default_ephemeris\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    sim = next(layer for layer in LAYERS if layer.package == "sim")
+    assert {v.split(": ")[1] for v in _violations(sim)} == {
+        "imports fsw.astro", "imports fsw.astro.earth", "imports fsw.astro.earth.itrs_to_gcrs_state",
+        "imports fsw.astro.moons", "imports fsw.astro.time"}

@@ -9,7 +9,7 @@ from scipy.optimize import brentq
 from fsw.astro.constants import C_KM_S, R_MARS_EQ_KM
 from fsw.astro.ephemeris import default_ephemeris
 from fsw.astro.asteroids import NAMES as BEACONS, beacon_state
-from fsw.astro.moons import moon_state
+from sim.truth.moons import moon_state
 from sim.sensors.camera import CameraError, pointing_frame, project, small_rotation
 from sim.sensors.config import OpticalConfig
 from sim.sensors.optical import simulate_optical

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fsw.astro.stations import station
+from sim.truth.stations import station
 from sim.clock import ClockConfig
 from sim.config import SimConfig
 from sim.dynamics.config import ForceModelConfig, TrajectoryConfig

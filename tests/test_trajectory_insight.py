@@ -10,8 +10,8 @@ from scipy.integrate import solve_ivp
 
 from fsw.astro.constants import AU_KM, GM_SUN, R_MARS_EQ_KM
 from fsw.astro.ephemeris import default_ephemeris
-from fsw.astro.mars import body_fixed_to_icrf_matrix
-from fsw.astro.time import utc_iso_to_tdb
+from sim.truth.mars import body_fixed_to_icrf_matrix
+from sim.truth.timescales import utc_iso_to_tdb
 from sim.dynamics.config import ForceModelConfig, TrajectoryConfig
 from sim.trajectories.insight import (
     build_truth_trajectory,

@@ -38,6 +38,7 @@ COMMANDS = (
     "tools.commands.calibrate",
     "tools.commands.tune",
     "tools.commands.validation_report",
+    "tools.commands.consistency",
 )
 
 

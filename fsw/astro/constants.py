@@ -1,5 +1,10 @@
 """Physical and astronomical constants used by navbank (km, s, kg, rad unless stated).
 
+Only nature's measured constants and defined ones (c, the AU, the WGS84 ellipsoid, the ERA rate,
+epochs) live here, because the simulator shares this module with the FSW (the import rule of
+docs/architecture.md): a *model* parameter — the Mars rotation model, a nutation series — belongs
+to its onboard model module, and the simulator's truth has its own.
+
 Gravitational parameters are the DE421 values (Folkner, Williams & Boggs 2009, as published in
 NAIF's ``gm_de421.tpc``), so that the dynamics and the ephemeris form a consistent set.
 Their consistency with the constants shipped inside the ``de421`` package is checked by a test.
@@ -8,6 +13,8 @@ Their consistency with the constants shipped inside the ``de421`` package is che
 from __future__ import annotations
 
 import math
+
+from fsw.interface.kinds import DOPPLER_CARRIER_HZ
 
 # --- gravitational parameters [km^3/s^2], DE421 -------------------------------------------------
 GM_SUN: float = 132712440040.944
@@ -41,23 +48,13 @@ P_SUN_1AU_N_M2: float = SOLAR_FLUX_1AU_W_M2 / (C_KM_S * 1e3)  # ~4.54e-6 N/m^2 o
 R_MARS_EQ_KM: float = 3396.19  # Mars equatorial radius (IAU WGCCRE 2009, Archinal et al. 2011)
 R_EARTH_EQ_KM: float = 6378.137  # WGS84 semi-major axis
 F_EARTH: float = 1.0 / 298.257223563  # WGS84 flattening
-# IAU WGCCRE 2009 Mars rotation model (Archinal et al. 2011): north pole at J2000 (the secular
-# drift, -0.1061 and -0.0609 deg/century, is below 0.02 deg over 2018 and is neglected) and
-# prime meridian W = W0 + rate * d, d in days of TDB past J2000.
-MARS_POLE_RA_DEG: float = 317.68143
-MARS_POLE_DEC_DEG: float = 52.88650
-MARS_W0_DEG: float = 176.630
-MARS_W_RATE_DEG_PER_DAY: float = 350.89198226
 
 # Earth rotation: rate of the Earth Rotation Angle (IAU 2000 B1.8), rad per UT1 second.
 ERA_RATE_CYCLES_PER_UT1_DAY: float = 1.00273781191135448
 OMEGA_EARTH_RAD_S: float = 2.0 * math.pi * ERA_RATE_CYCLES_PER_UT1_DAY / SECONDS_PER_DAY  # 7.2921159e-5
 
 # --- radio ----------------------------------------------------------------------------------------
-F_X_UPLINK_HZ: float = 7.15e9  # DSN X-band uplink carrier (nominal)
-F_X_DOWNLINK_HZ: float = 8.4e9  # DSN X-band downlink carrier (nominal)
-# One-way Doppler in navbank is expressed against the X-band downlink-like carrier received
-# on board from the ground reference: f_D = -(F/c) * range_rate.
-F_DOPPLER_REF_HZ: float = F_X_DOWNLINK_HZ
-# 1 mHz of one-way Doppler corresponds to this range rate [km/s per mHz] (~3.57e-8 km/s = 0.036 mm/s).
-MHZ_TO_KM_S: float = C_KM_S / F_DOPPLER_REF_HZ * 1e-3
+# The carrier is the ICD's (fsw.interface.kinds: one-way uplink Doppler, X-band uplink carrier):
+# f_D = -(F/c) * range_rate, so 1 mHz of Doppler is this range rate [km/s per mHz]
+# (~4.19e-8 km/s = 0.042 mm/s).
+MHZ_TO_KM_S: float = C_KM_S / DOPPLER_CARRIER_HZ * 1e-3

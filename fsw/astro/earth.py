@@ -1,15 +1,22 @@
-"""Earth orientation: ITRS (Earth-fixed) <-> GCRS (ICRF axes, geocentric).
+"""Earth orientation onboard: ITRS (Earth-fixed) <-> GCRS (ICRF axes, geocentric).
 
 IERS Conventions 2010 CIO-based transformation, ``r_GCRS = Q(t) R(t) W(t) r_ITRS``:
 
-* R(t) = R3(-ERA), Earth Rotation Angle (IAU 2000 B1.8, eq. 5.15) from UT1, with UT1 = UTC +
-  ``dut1_s`` (default 0; |UT1-UTC| < 0.9 s, i.e. up to ~0.4 km at the equator if left at 0;
-  in late 2018 it was below 0.1 s, ~40 m).
-* Q(t) from the CIP coordinates X, Y (eq. 5.10 closed form) with the polynomial
-  precession part and the largest nutation terms (Tables 5.2a/b: 18.6 yr, semi-annual,
-  fortnightly, 9.3 yr, annual); s = -XY/2. Omitted terms are < 0.1 arcsec (~3 m at the surface).
-  Ignoring Q entirely would cost ~400 arcsec in 2018 (~12 km), which is why it is kept.
-* W(t) (polar motion, ~0.3 arcsec ~ 10 m) is the identity.
+* Q(t) from the CIP coordinates X, Y and the CIO locator s of the IAU 2000B model (ERFA
+  ``xys00b``: the 77 largest luni-solar nutation terms and fixed planetary offsets), ~1 mas from
+  IAU 2006/2000A, i.e. ~1-2 cm at the surface. Ignoring Q entirely would cost ~400 arcsec in
+  2018 (~12 km), a truncation to the five largest terms ~0.1 arcsec (~3 m).
+* R(t) = R3(-ERA), Earth Rotation Angle (IAU 2000 B1.8, eq. 5.15) from UT1.
+* W(t) = polar motion from the pole coordinates x, y (s' is left out: < 0.1 mas).
+
+UT1-UTC and the pole coordinates are the Earth orientation uplinked with the daily tracking
+products (``data/eop_uploaded.csv``: the IERS C04 values at 0h UTC of each day), interpolated
+linearly, UT1-UTC through UT1-TAI so that a leap second does not smear; the velocity uses the
+interpolant's UT1 rate. A weekly upload instead was measured to leave 0.33 m and 0.024 mm/s at
+the stations, which biased the fused filter (NEES ~3x its dimension); daily leaves 2 cm and
+0.001 mm/s. Outside the uploaded spans UT1 = UTC and the pole is at the origin, which errs up to
+|UT1-UTC| x 465 m/s (< 0.9 s, i.e. < 0.4 km) and ~0.3 arcsec (~10 m). An explicit ``dut1_s``
+replaces the table's UT1-UTC (and the pole) where given.
 
 The velocity includes Earth rotation and the (small) rate of Q, so it is the time derivative of
 the position function to < 1e-12 km/s.
@@ -18,11 +25,65 @@ the position function to < 1e-12 km/s.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
+from pathlib import Path
 
+import erfa
 import numpy as np
 
 from fsw.astro.constants import ERA_RATE_CYCLES_PER_UT1_DAY, F_EARTH, R_EARTH_EQ_KM, SECONDS_PER_DAY
-from fsw.astro.time import tdb_to_naive_utc, tdb_to_tt_centuries
+from fsw.astro.time import naive_utc_to_tai, tdb_to_naive_utc, tdb_to_tt_centuries
+
+_EOP_FILE = Path(__file__).with_name("data") / "eop_uploaded.csv"
+
+
+@lru_cache(maxsize=1)
+def _uploaded_eop() -> tuple[np.ndarray, np.ndarray, list[tuple[float, float]]]:
+    """(naive UTC s of each sample, columns [UT1-UTC, x rad, y rad], spans of consecutive weeks)."""
+    data = np.loadtxt(_EOP_FILE, delimiter=",", comments="#", skiprows=3)
+    u = (data[:, 0] - 51544.5) * SECONDS_PER_DAY  # 0h UTC as naive UTC seconds past J2000 noon
+    cols = np.column_stack([data[:, 3], np.radians(data[:, 1] / 3600.0), np.radians(data[:, 2] / 3600.0)])
+    breaks = np.flatnonzero(np.diff(data[:, 0]) != 1.0) + 1
+    spans = [(float(a[0]), float(a[-1])) for a in np.split(u, breaks)]
+    return u, cols, spans
+
+
+def _eop_and_ut1_tai(t_tdb) -> tuple[np.ndarray, np.ndarray]:
+    """([UT1-UTC, x, y] (N, 3), UT1-TAI (N,)) at t_tdb; UT1-TAI is NaN outside the uploaded spans."""
+    u_q = np.atleast_1d(np.asarray(tdb_to_naive_utc(t_tdb), dtype=float))
+    u, cols, spans = _uploaded_eop()
+    tai_rows = np.asarray(naive_utc_to_tai(u), dtype=float) - u  # TAI-UTC of each sample
+    dat_q = np.asarray(naive_utc_to_tai(u_q), dtype=float) - u_q
+    out = np.zeros((u_q.size, 3))
+    ut1_tai = np.full(u_q.size, np.nan)
+    for lo, hi in spans:
+        inside = (u_q >= lo) & (u_q <= hi)
+        if inside.any():
+            sel = (u >= lo) & (u <= hi)
+            ut1_tai[inside] = np.interp(u_q[inside], u[sel], cols[sel, 0] - tai_rows[sel])
+            out[inside, 0] = ut1_tai[inside] + dat_q[inside]
+            out[inside, 1] = np.interp(u_q[inside], u[sel], cols[sel, 1])
+            out[inside, 2] = np.interp(u_q[inside], u[sel], cols[sel, 2])
+    return out, ut1_tai
+
+
+def uploaded_eop(t_tdb) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """UT1-UTC [s], pole x and y [rad] at t_tdb from the uploaded table; zeros outside it.
+
+    UT1-UTC is interpolated as UT1-TAI so that a leap second between samples does not smear.
+    """
+    out, _ = _eop_and_ut1_tai(t_tdb)
+    return out[:, 0], out[:, 1], out[:, 2]
+
+
+def ut1_rate(t_tdb) -> np.ndarray:
+    """d(UT1-TAI)/dt [s/s] of the uploaded table (0 outside it): the slope, not smeared by a leap second."""
+    dh = 60.0
+    t = np.asarray(t_tdb, dtype=float)
+    _, hi = _eop_and_ut1_tai(t + dh)
+    _, lo = _eop_and_ut1_tai(t - dh)
+    rate = (hi - lo) / (2 * dh)
+    return np.where(np.isfinite(rate), rate, 0.0).reshape(np.shape(t))
 
 _UAS = math.pi / (180.0 * 3600.0 * 1e6)  # microarcsecond in rad
 _AS = math.pi / (180.0 * 3600.0)
@@ -37,53 +98,42 @@ def era_from_ut1_days(du) -> np.ndarray | float:
     return float(era) if era.ndim == 0 else era
 
 
-def earth_rotation_angle(t_tdb, dut1_s: float = 0.0):
-    """ERA [rad] at t_tdb with UT1 = UTC + dut1_s."""
-    return era_from_ut1_days((tdb_to_naive_utc(t_tdb) + dut1_s) / SECONDS_PER_DAY)
+def earth_rotation_angle(t_tdb, dut1_s: float | None = None):
+    """ERA [rad] at t_tdb with UT1 = UTC + dut1_s (default: the uploaded UT1-UTC)."""
+    if dut1_s is None:
+        dut1 = uploaded_eop(t_tdb)[0]
+        dut1_arr: np.ndarray | float = dut1 if np.ndim(t_tdb) else float(dut1[0])
+    else:
+        dut1_arr = dut1_s
+    return era_from_ut1_days((tdb_to_naive_utc(t_tdb) + dut1_arr) / SECONDS_PER_DAY)
+
+
+def polar_motion_matrix(t_tdb, dut1_s: float | None = None) -> np.ndarray:
+    """W (ITRS -> TIRS) from the uploaded pole; identity where ``dut1_s`` is given explicitly."""
+    n = np.shape(t_tdb)
+    if dut1_s is not None:
+        return np.broadcast_to(np.eye(3), n + (3, 3)).copy()
+    _, xp, yp = uploaded_eop(t_tdb)
+    w = np.swapaxes(erfa.pom00(xp, yp, 0.0), -1, -2)
+    return w.reshape(n + (3, 3))
+
+
+def cip_xys(t_tdb) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """CIP coordinates X, Y and CIO locator s [rad] in the GCRS (IAU 2000B, ERFA ``xys00b``)."""
+    T = np.asarray(tdb_to_tt_centuries(t_tdb), dtype=float)
+    return erfa.xys00b(2451545.0, T * 36525.0)
 
 
 def cip_xy(t_tdb) -> tuple[np.ndarray, np.ndarray]:
-    """CIP coordinates X, Y [rad] in the GCRS (IERS 2010 Tables 5.2a/b, truncated)."""
-    T = np.asarray(tdb_to_tt_centuries(t_tdb), dtype=float)
-    # Delaunay arguments (IERS 2010 eq. 5.43), arcsec -> rad.
-    lp = (1287104.79305 + 129596181.0481 * T) * _AS
-    F = (335779.526232 + 1739527262.8478 * T) * _AS
-    D = (1072260.70369 + 1602961601.2090 * T) * _AS
-    Om = (450160.398036 - 6962890.5431 * T) * _AS
-    a1 = 2 * F - 2 * D + 2 * Om
-    a2 = 2 * F + 2 * Om
-    X = (-16617.0 + 2004191898.0 * T - 429782.9 * T**2 - 198618.34 * T**3 + 7.578 * T**4 + 5.9285 * T**5
-         - 6844318.44 * np.sin(Om) - 523908.04 * np.sin(a1) - 90552.22 * np.sin(a2)
-         + 82168.76 * np.sin(2 * Om) + 58707.02 * np.sin(lp))
-    Y = (-6951.0 - 25896.0 * T - 22407274.7 * T**2 + 1900.59 * T**3 + 1112.526 * T**4 + 0.1358 * T**5
-         + 9205236.26 * np.cos(Om) + 573033.42 * np.cos(a1) + 97846.69 * np.cos(a2)
-         - 89618.24 * np.cos(2 * Om))
-    return X * _UAS, Y * _UAS
+    """CIP coordinates X, Y [rad] in the GCRS (IAU 2000B)."""
+    X, Y, _ = cip_xys(t_tdb)
+    return X, Y
 
 
 def cirs_to_gcrs_matrix(t_tdb) -> np.ndarray:
     """Q(t) (IERS 2010 eq. 5.10): CIRS -> GCRS; (3, 3) or (N, 3, 3)."""
-    X, Y = cip_xy(t_tdb)
-    a = 1.0 / (1.0 + np.sqrt(1.0 - X * X - Y * Y))
-    m = np.empty(np.shape(X) + (3, 3))
-    m[..., 0, 0] = 1 - a * X * X
-    m[..., 0, 1] = -a * X * Y
-    m[..., 0, 2] = X
-    m[..., 1, 0] = -a * X * Y
-    m[..., 1, 1] = 1 - a * Y * Y
-    m[..., 1, 2] = Y
-    m[..., 2, 0] = -X
-    m[..., 2, 1] = -Y
-    m[..., 2, 2] = 1 - a * (X * X + Y * Y)
-    s = -X * Y / 2.0
-    cs, ss = np.cos(s), np.sin(s)
-    r3s = np.zeros(np.shape(X) + (3, 3))
-    r3s[..., 0, 0] = cs
-    r3s[..., 0, 1] = ss
-    r3s[..., 1, 0] = -ss
-    r3s[..., 1, 1] = cs
-    r3s[..., 2, 2] = 1.0
-    return m @ r3s
+    X, Y, s = cip_xys(t_tdb)
+    return np.swapaxes(erfa.c2ixys(X, Y, s), -1, -2)
 
 
 def _r3_neg(theta):
@@ -97,18 +147,18 @@ def _r3_neg(theta):
     return m
 
 
-def itrs_to_gcrs_matrix(t_tdb, dut1_s: float = 0.0) -> np.ndarray:
+def itrs_to_gcrs_matrix(t_tdb, dut1_s: float | None = None) -> np.ndarray:
     """Rotation ITRS -> GCRS at t_tdb; (3, 3) or (N, 3, 3)."""
-    return cirs_to_gcrs_matrix(t_tdb) @ _r3_neg(earth_rotation_angle(t_tdb, dut1_s))
+    return cirs_to_gcrs_matrix(t_tdb) @ _r3_neg(earth_rotation_angle(t_tdb, dut1_s)) @ polar_motion_matrix(t_tdb, dut1_s)
 
 
-def itrs_to_gcrs_state(r_itrs_km, t_tdb, dut1_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def itrs_to_gcrs_state(r_itrs_km, t_tdb, dut1_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """GCRS position [km] and velocity [km/s] of a point fixed in the ITRS.
 
     ``r_itrs_km`` is (3,); t scalar -> (3,) outputs, t (N,) -> (N, 3).
     """
-    r = np.asarray(r_itrs_km, dtype=float)
     t = np.asarray(t_tdb, dtype=float)
+    r = polar_motion_matrix(t, dut1_s) @ np.asarray(r_itrs_km, dtype=float)
     theta = earth_rotation_angle(t, dut1_s)
     R = _r3_neg(theta)
     c, s = np.cos(theta), np.sin(theta)
@@ -118,12 +168,16 @@ def itrs_to_gcrs_state(r_itrs_km, t_tdb, dut1_s: float = 0.0) -> tuple[np.ndarra
     dR[..., 1, 0] = c
     dR[..., 1, 1] = -s
     omega = 2.0 * np.pi * ERA_RATE_CYCLES_PER_UT1_DAY / SECONDS_PER_DAY
-    dR *= omega
+    if dut1_s is None:  # UT1 runs slow by the length-of-day excess (~1e-8): the uploaded slope
+        omega_t = omega * (1.0 + ut1_rate(t))
+        dR *= omega_t[..., None, None]
+    else:
+        dR *= omega
     h = 3600.0  # Q varies over >= 5.5 days; a central difference over +-1 h is exact enough
     Q = cirs_to_gcrs_matrix(t)
     dQ = (cirs_to_gcrs_matrix(t + h) - cirs_to_gcrs_matrix(t - h)) / (2 * h)
-    pos = (Q @ R) @ r
-    vel = (Q @ dR + dQ @ R) @ r
+    pos = ((Q @ R) @ r[..., None])[..., 0]
+    vel = ((Q @ dR + dQ @ R) @ r[..., None])[..., 0]
     return pos, vel
 
 

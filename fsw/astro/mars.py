@@ -12,14 +12,16 @@ import math
 
 import numpy as np
 
-from fsw.astro.constants import (
-    MARS_POLE_DEC_DEG,
-    MARS_POLE_RA_DEG,
-    MARS_W0_DEG,
-    MARS_W_RATE_DEG_PER_DAY,
-    SECONDS_PER_DAY,
-)
+from fsw.astro.constants import SECONDS_PER_DAY
 from fsw.astro.frames import pole_frame
+
+# IAU WGCCRE 2009 Mars rotation model (Archinal et al. 2011): north pole at J2000 (the secular
+# drift, -0.1061 and -0.0609 deg/century, is below 0.02 deg over 2018 and is neglected) and
+# prime meridian W = W0 + rate * d, d in days of TDB past J2000.
+MARS_POLE_RA_DEG: float = 317.68143
+MARS_POLE_DEC_DEG: float = 52.88650
+MARS_W0_DEG: float = 176.630
+MARS_W_RATE_DEG_PER_DAY: float = 350.89198226
 
 # Columns: Mars-equator frame axes expressed in ICRF (v_icrf = M @ v_equator).
 MARS_EQUATOR_TO_ICRF: np.ndarray = pole_frame(math.radians(MARS_POLE_RA_DEG), math.radians(MARS_POLE_DEC_DEG))

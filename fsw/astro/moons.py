@@ -1,18 +1,17 @@
-"""Phobos and Deimos: Mars-centred states from fixed Keplerian elements.
+"""Phobos and Deimos onboard: the uploaded mean elements, a precessing ellipse.
 
-Elements are mean elements referred to the Mars equator of J2000 (IAU 2009 pole
-``MARS_POLE_RA_DEG``/``MARS_POLE_DEC_DEG``); x of that frame is the ascending node of the Mars
-equator on the ICRF equator. a, e, i are the values of DESIGN.md; the angles (node, argument
-of periapsis, mean anomaly at J2000 TDB) are fixed reference values of this simulator, of the
-kind published as mean elements but not a fit to observations. The mean motion follows from a and the
-Mars-system GM, so positions and velocities are an exact two-body pair; the resulting
-periods (7.655 h, 30.31 h) match DESIGN.md's 7.65 h and 30.3 h.
+The onboard moon ephemeris is data a mission uploads, as the planetary ephemeris is: JPL's
+published mean elements (Solar System Dynamics, "Planetary Satellite Mean Elements", MAR080
+solution, epoch 1950 Jan 1.00 TT), each orbit referred to its own Laplace plane (pole RA/Dec
+below; x is the plane's ascending node on the ICRF equator). Mean anomaly advances at the
+published mean motion, the argument of periapsis advances and the node regresses at the
+published precession periods.
 
-Simplifications, stated so nobody mistakes these for a satellite ephemeris: the J2-driven
-precession of node and periapsis (Phobos' node regresses ~158 deg/yr) and the Laplace-plane
-tilt are not modelled, so after months the angles differ from the real moons by tens of
-degrees. Truth and onboard models both read this module, so the navigation problem stays
-self-consistent; only comparison with real images would need a real satellite ephemeris.
+Onboard simplifications: the epoch is taken as 1950 Jan 1.00 TDB (TDB-TT, 1.6 ms at most,
+moves Phobos by < 4 m), and the velocity is that of the fixed ellipse of the instant (the
+precession rates add < 2 m/s, which enter only the light-time correction, < 10 m at Mars
+distances). The simulator evaluates the same published elements with its own code
+(:mod:`sim.truth.moons`); docs/validation.md gives the measured difference.
 """
 
 from __future__ import annotations
@@ -22,8 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsw.astro.constants import GM_MARS_SYSTEM
-from fsw.astro.mars import MARS_EQUATOR_TO_ICRF
+from fsw.astro.constants import SECONDS_PER_DAY
+from fsw.astro.frames import pole_frame
+from fsw.astro.mars import MARS_EQUATOR_TO_ICRF  # noqa: F401  (the Mars equator frame, re-exported)
+
+_EPOCH_S = (2433282.5 - 2451545.0) * SECONDS_PER_DAY  # 1950 Jan 1.00, seconds past J2000
+_YEAR_S = 365.25 * SECONDS_PER_DAY
 
 
 class MoonError(ValueError):
@@ -32,20 +35,25 @@ class MoonError(ValueError):
 
 @dataclass(frozen=True)
 class MoonElements:
-    """Keplerian elements of a Mars moon in the Mars-equator J2000 frame (km, deg)."""
+    """Published mean elements of a Mars moon (km, deg, deg/day, years) and its mean radius."""
 
     a_km: float
     e: float
+    argp_deg: float
+    mean_anomaly_deg: float
     i_deg: float
     node_deg: float
-    argp_deg: float
-    mean_anomaly_j2000_deg: float
+    n_deg_day: float
+    p_argp_yr: float
+    p_node_yr: float
+    laplace_ra_deg: float
+    laplace_dec_deg: float
     radius_km: float  # mean radius, for optical limb/centre-finding models
 
     @property
     def mean_motion(self) -> float:
-        """rad/s, from a and GM of the Mars system."""
-        return math.sqrt(GM_MARS_SYSTEM / self.a_km**3)
+        """rad/s."""
+        return math.radians(self.n_deg_day) / SECONDS_PER_DAY
 
     @property
     def period_s(self) -> float:
@@ -53,9 +61,13 @@ class MoonElements:
 
 
 MOONS: dict[str, MoonElements] = {
-    "phobos": MoonElements(9375.0, 0.0151, 1.08, 164.931, 150.247, 91.059, 11.08),
-    "deimos": MoonElements(23463.0, 0.0003, 0.93, 339.600, 290.496, 296.230, 6.2),
+    "phobos": MoonElements(9376.0, 0.0151, 150.057, 91.059, 1.075, 207.784, 1128.8447569, 1.1316, 2.2617,
+                           317.671, 52.893, 11.08),
+    "deimos": MoonElements(23458.0, 0.0002, 260.729, 325.329, 1.788, 24.525, 285.1618790, 27.3703, 54.5367,
+                           316.657, 53.529, 6.2),
 }
+_FRAMES = {name: pole_frame(math.radians(el.laplace_ra_deg), math.radians(el.laplace_dec_deg))
+           for name, el in MOONS.items()}
 
 
 def solve_kepler(mean_anomaly, e: float, tol: float = 1e-14) -> np.ndarray:
@@ -82,23 +94,24 @@ def moon_state(name: str, t_tdb) -> tuple[np.ndarray, np.ndarray]:
     t = np.asarray(t_tdb, dtype=float)
     if not np.all(np.isfinite(t)):
         raise MoonError("non-finite time")
+    dt = t - _EPOCH_S
     n = el.mean_motion
-    E = solve_kepler(math.radians(el.mean_anomaly_j2000_deg) + n * t, el.e)
+    M = np.radians(np.mod(el.mean_anomaly_deg + el.n_deg_day * (dt / SECONDS_PER_DAY), 360.0))
+    E = solve_kepler(M, el.e)
     cE, sE = np.cos(E), np.sin(E)
     b = el.a_km * math.sqrt(1.0 - el.e**2)
-    # Perifocal coordinates (x towards periapsis).
     xp = el.a_km * (cE - el.e)
     yp = b * sE
     Edot = n / (1.0 - el.e * cE)
     vxp = -el.a_km * sE * Edot
     vyp = b * cE * Edot
-    O, i, w = (math.radians(el.node_deg), math.radians(el.i_deg), math.radians(el.argp_deg))
-    cO, sO, ci, si, cw, sw = math.cos(O), math.sin(O), math.cos(i), math.sin(i), math.cos(w), math.sin(w)
-    # Perifocal -> Mars-equator frame: R3(-O) R1(-i) R3(-w), first two columns.
-    P = np.array([cO * cw - sO * sw * ci, sO * cw + cO * sw * ci, sw * si])
-    Q = np.array([-cO * sw - sO * cw * ci, -sO * sw + cO * cw * ci, cw * si])
-    M = MARS_EQUATOR_TO_ICRF
-    P, Q = M @ P, M @ Q
-    pos = np.multiply.outer(xp, P) + np.multiply.outer(yp, Q)
-    vel = np.multiply.outer(vxp, P) + np.multiply.outer(vyp, Q)
+    w = np.radians(el.argp_deg) + 2 * np.pi * dt / (el.p_argp_yr * _YEAR_S)
+    O = np.radians(el.node_deg) - 2 * np.pi * dt / (el.p_node_yr * _YEAR_S)
+    ci, si = math.cos(math.radians(el.i_deg)), math.sin(math.radians(el.i_deg))
+    cO, sO, cw, sw = np.cos(O), np.sin(O), np.cos(w), np.sin(w)
+    # Perifocal -> Laplace-plane frame: R3(-node) R1(-i) R3(-w), first two columns; then to ICRF.
+    P = np.stack([cO * cw - sO * sw * ci, sO * cw + cO * sw * ci, sw * si], axis=-1) @ _FRAMES[name.lower()].T
+    Q = np.stack([-cO * sw - sO * cw * ci, -sO * sw + cO * cw * ci, cw * si], axis=-1) @ _FRAMES[name.lower()].T
+    pos = xp[..., None] * P + yp[..., None] * Q
+    vel = vxp[..., None] * P + vyp[..., None] * Q
     return pos, vel

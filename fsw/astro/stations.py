@@ -4,7 +4,8 @@ ITRF coordinates of the 70 m antennas and of the 34 m high-efficiency antennas D
 (the stations of Chaer et al.'s (1998) Mars Pathfinder cruise) from the DSN Telecommunications Link Design
 Handbook 810-005, module 301 (Rev. M, Table of station locations, ITRF93, epoch 2003.0; also in
 NAIF's earth_topo_201023.tf). DSS 15 and DSS 45 are decommissioned; DSS 65 is at its post-2005
-location, a few metres from where it tracked Pathfinder. Tectonic drift (a few cm/yr) is ignored.
+location, a few metres from where it tracked Pathfinder. The positions move with the handbook's
+plate-motion velocity of each complex (2-5 cm/yr: 0.3-0.8 m between 2003.0 and 2018).
 """
 
 from __future__ import annotations
@@ -18,6 +19,16 @@ from fsw.astro.earth import itrs_to_gcrs_matrix, itrs_to_gcrs_state, itrs_to_geo
 from fsw.astro.ephemeris import EphemerisSource, default_ephemeris
 
 
+_EPOCH_2003_S = 94651200.0  # 2003-01-01T00:00:00, seconds past J2000
+_YEAR_S = 365.25 * 86400.0
+# Plate motion per complex [km/yr] (810-005 module 301 Rev. M).
+_PLATE_KM_YR = {
+    "goldstone": (-0.0180e-3, 0.0065e-3, -0.0038e-3),
+    "canberra": (-0.0335e-3, -0.0041e-3, 0.0392e-3),
+    "madrid": (-0.0100e-3, 0.0242e-3, 0.0156e-3),
+}
+
+
 class StationError(ValueError):
     """Unknown station name or bad target vector."""
 
@@ -28,7 +39,12 @@ class Station:
 
     name: str  # canonical, e.g. "DSS-14"
     complex: str  # "goldstone" | "canberra" | "madrid"
-    itrs_km: tuple[float, float, float]
+    itrs_km: tuple[float, float, float]  # at epoch 2003.0
+
+    def itrs_at(self, t_tdb) -> np.ndarray:
+        """ITRS position [km] at t_tdb: the 2003.0 position plus plate motion; (3,) or (N, 3)."""
+        years = (np.asarray(t_tdb, dtype=float) - _EPOCH_2003_S) / _YEAR_S
+        return np.asarray(self.itrs_km) + np.multiply.outer(years, np.asarray(_PLATE_KM_YR[self.complex]))
 
     @property
     def geodetic(self) -> tuple[float, float, float]:
@@ -73,13 +89,15 @@ def station(name: str) -> Station:
         ) from None
 
 
-def station_state_icrf(name: str, t_tdb, dut1_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def station_state_icrf(name: str, t_tdb, dut1_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Geocentric ICRF (GCRS) position [km] and velocity [km/s]; scalar t -> (3,), (N,) -> (N, 3)."""
-    return itrs_to_gcrs_state(np.array(station(name).itrs_km), t_tdb, dut1_s)
+    st = station(name)
+    # plate motion within one call's span (mm a month) is left out: the position at its first epoch
+    return itrs_to_gcrs_state(st.itrs_at(float(np.min(t_tdb)) if np.size(t_tdb) else 0.0), t_tdb, dut1_s)
 
 
 def station_state_mars(
-    name: str, t_tdb, ephemeris: EphemerisSource | None = None, dut1_s: float = 0.0
+    name: str, t_tdb, ephemeris: EphemerisSource | None = None, dut1_s: float | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Mars-centred ICRF position [km] and velocity [km/s] of a station (adds Earth's state).
 
@@ -92,7 +110,7 @@ def station_state_mars(
     return pe + ps, ve + vs
 
 
-def elevation(name: str, t_tdb, target_pos_geocentric_km, dut1_s: float = 0.0) -> np.ndarray | float:
+def elevation(name: str, t_tdb, target_pos_geocentric_km, dut1_s: float | None = None) -> np.ndarray | float:
     """Elevation [rad] of a target above a station's geodetic horizon.
 
     ``target_pos_geocentric_km``: geocentric ICRF target position(s), (3,) or (N, 3) matching t.
@@ -103,7 +121,7 @@ def elevation(name: str, t_tdb, target_pos_geocentric_km, dut1_s: float = 0.0) -
     if target.shape[-1:] != (3,) or not np.all(np.isfinite(target)):
         raise StationError(f"target must be finite (..., 3) positions, got shape {target.shape}")
     M = itrs_to_gcrs_matrix(t_tdb, dut1_s)
-    pos = M @ np.array(st.itrs_km)
+    pos = M @ st.itrs_at(float(np.min(t_tdb)) if np.size(t_tdb) else 0.0)
     up = M @ st.up_itrs
     los = target - pos
     rng = np.linalg.norm(los, axis=-1)

@@ -91,10 +91,13 @@ class PolyAccelConfig:
 class ClockConfig:
     """Onboard clock error states (phase, frequency, drift) and their process noise."""
 
-    phase_sigma_s: float = spec(1e-6, doc="a-priori phase 1-sigma", unit="s", ge=0.0)
+    # a priori = the dispersion after the last ground synchronisation (0.1 us, 30 m of range),
+    # which is what the simulated clock draws; 1 us made the fused filter conservative
+    phase_sigma_s: float = spec(1e-7, doc="a-priori phase 1-sigma", unit="s", ge=0.0)
     frequency_sigma: float = spec(1e-13, doc="a-priori fractional frequency 1-sigma; 0 drops frequency and drift", unit="1", ge=0.0)
     drift_sigma_per_s: float = spec(
-        3.0e-16 / DAY_S, doc="a-priori drift 1-sigma; 0 drops the drift state", unit="1/s", ge=0.0
+        1.0e-16 / DAY_S, doc="a-priori drift 1-sigma (the simulated clock's dispersion); 0 drops the drift state",
+        unit="1/s", ge=0.0
     )
     drift_per_s: float = spec(3.0e-16 / DAY_S, doc="a-priori mean drift", unit="1/s")
     q_white_fm_s: float = spec(DEFAULT_Q_WHITE_FM_S, doc="white-FM spectral density q1", unit="s", ge=0.0)

@@ -32,7 +32,15 @@ RANGE = KindDeclaration(
 DOPPLER = KindDeclaration(
     "doppler", 1, "km/s",
     "one-way uplink Doppler as a range-rate over the count interval count_time_s ending at t_s "
-    "(1 mHz at X-band = fsw.astro.constants conversion)")
+    "(in frequency, f_D = -(DOPPLER_CARRIER_HZ / c) x range rate: fsw.astro.constants.MHZ_TO_KM_S)")
+
+#: DSN X-band carriers (DSN Telecommunications Link Design Handbook 810-005, module 201: uplink
+#: 7145-7190 MHz, downlink 8400-8450 MHz). navbank's Doppler is one-way *uplink* — the station
+#: transmits, the spacecraft counts the received carrier against its own clock — so the carrier
+#: that converts a Doppler shift to a range rate is the uplink one.
+X_UPLINK_HZ: float = 7.15e9
+X_DOWNLINK_HZ: float = 8.4e9
+DOPPLER_CARRIER_HZ: float = X_UPLINK_HZ
 OPTICAL = KindDeclaration(
     "optical", 2, "px", "[sample, line] of a target centre in the navigation camera image",
     requires=("attitude_q",))

@@ -3,8 +3,8 @@
 Positions are in ICRF axes. Planets come from DE421 through an interpolating table centred on
 the solar-system barycentre (SSB), because the radiometric and optical light-time equations
 are solved in the barycentric frame (as the measurements are made); the dynamics take
-Mars-centred differences of the same table. Phobos and Deimos are the Keplerian orbits of
-:mod:`fsw.astro.moons`; the asteroid beacons the heliocentric two-body orbits of the onboard
+Mars-centred differences of the same table. Phobos and Deimos are the uploaded precessing mean
+elements of :mod:`fsw.astro.moons`; the asteroid beacons the heliocentric two-body orbits of the onboard
 catalogue :mod:`fsw.astro.asteroids`, made Mars-centred with the table's Sun and Mars.
 
 DSN stations: the Earth-rotation chain of :mod:`fsw.astro.stations` costs ~0.5 ms a node, so

@@ -17,7 +17,7 @@ from typing import Literal, cast
 import numpy as np
 
 from fsw.astro.constants import MHZ_TO_KM_S, SECONDS_PER_DAY
-from fsw.astro.time import tdb_to_unix
+from sim.truth.timescales import tdb_to_unix
 from fsw.interface.messages import FaultEvent, Stamp
 from sim.clock import ClockStep
 from sim.dynamics.stochastic import StochasticRealisation

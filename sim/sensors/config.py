@@ -36,7 +36,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from fsw.astro.stations import station
+from sim.truth.stations import station
 from fsw.interface.typed import spec
 from sim.sensors.asteroids import NAMES as ASTEROIDS
 
@@ -45,7 +45,7 @@ from sim.sensors.asteroids import NAMES as ASTEROIDS
 class PassPlan:
     """Periodic tracking passes of one station."""
 
-    station: str = spec(doc="DSN station (fsw.astro.stations name)")
+    station: str = spec(doc="DSN station (sim.truth.stations name)")
     first_day: float = spec(doc="day of the first pass, days since scenario start", unit="day", ge=0.0)
     period_days: float = spec(7.0, doc="days between passes", unit="day", gt=0.0)
     duration_h: float = spec(4.0, doc="length of each pass", unit="h", gt=0.0, le=24.0)
@@ -55,7 +55,7 @@ class PassPlan:
 class RadiometricConfig:
     """One-way uplink range and Doppler from the DSN, time-tagged by the onboard clock."""
 
-    stations: tuple[str, ...] = spec(("DSS-14", "DSS-43", "DSS-63"), doc="candidate DSN stations (fsw.astro.stations names)")
+    stations: tuple[str, ...] = spec(("DSS-14", "DSS-43", "DSS-63"), doc="candidate DSN stations (sim.truth.stations names)")
     passes_per_day: int = spec(3, doc="tracking passes per day, evenly spaced", ge=0, le=24)
     pass_duration_h: float = spec(3.0, doc="length of each tracking pass", unit="h", gt=0.0, le=24.0)
     first_pass_offset_h: float = spec(0.0, doc="start of the first pass after the scenario start", unit="h", ge=0.0)
@@ -67,6 +67,9 @@ class RadiometricConfig:
     doppler_count_s: float = spec(60.0, doc="Doppler count interval ending at the time tag", unit="s", gt=0.0)
     range_sigma_m: float = spec(1.0, doc="range noise 1-sigma", unit="m", gt=0.0)
     doppler_sigma_mm_s: float = spec(0.1, doc="Doppler noise 1-sigma as range rate at the count interval", unit="mm/s", gt=0.0)
+    range_bias_sigma_m: float = spec(
+        2.0, doc="1-sigma of the constant range bias of a run (station delay calibration), drawn once per run",
+        unit="m", ge=0.0)
     pass_plan: tuple[PassPlan, ...] = spec(
         (), doc="periodic passes per station; replaces the daily schedule (and the stations list) when given"
     )

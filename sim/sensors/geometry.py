@@ -2,7 +2,8 @@
 
 The truth trajectory is Mars-centred; light-time problems are solved in the barycentric frame
 (see :mod:`sim.sensors.lighttime`), so the scene adds Mars' barycentric position from a DE421
-table. Axes are ICRF throughout; units km and s (TDB seconds past J2000).
+table. Axes are ICRF throughout; units km and s (TDB seconds past J2000). Stations, Earth
+orientation and the moons are the simulator's own truth models (:mod:`sim.truth`).
 """
 
 from __future__ import annotations
@@ -12,8 +13,9 @@ from typing import Callable
 import numpy as np
 
 from fsw.astro.ephemeris import Ephemeris, default_ephemeris
-from fsw.astro.moons import moon_state
-from fsw.astro.stations import station_state_icrf
+from sim.truth.earth import EarthOrientation
+from sim.truth.moons import moon_state
+from sim.truth.stations import station as truth_station
 from sim.sensors import asteroids
 
 PositionFn = Callable[[np.ndarray], np.ndarray]
@@ -34,6 +36,24 @@ class Scene:
         self._sc_position = sc_position
         self._table = eph.table(t_start - _MARGIN_S, t_end + _MARGIN_S, bodies=("mars", "earth", "sun"),
                                 center="ssb", step_s=step_s)
+        self._earth = EarthOrientation(t_start - _MARGIN_S, t_end + _MARGIN_S)
+
+    def station_gcrs(self, name: str, t) -> tuple[np.ndarray, np.ndarray]:
+        """Geocentric (GCRS) position [km] and velocity [km/s] (N, 3) of DSN station ``name``."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        p, v = self._earth.state(truth_station(name).itrs_km(t)[..., None], t)
+        return p[..., 0], v[..., 0]
+
+    def elevation(self, name: str, t, target_geocentric_km) -> np.ndarray:
+        """Elevation [rad] (N,) of geocentric targets (N, 3) above the station's WGS84 horizon."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        st = truth_station(name)
+        m, _ = self._earth.matrices(t)
+        pos = (m @ st.itrs_km(t)[..., None])[..., 0]
+        up = m @ st.up_itrs(float(t[0])) if t.size else np.zeros((0, 3))
+        los = np.asarray(target_geocentric_km, dtype=float) - pos
+        sin_el = np.einsum("ni,ni->n", los, up) / np.linalg.norm(los, axis=-1)
+        return np.arcsin(np.clip(sin_el, -1.0, 1.0))
 
     def body(self, name: str, t) -> np.ndarray:
         """Barycentric position of ``mars``, ``earth`` or ``sun`` at times t (N,) -> (N, 3)."""
@@ -57,7 +77,7 @@ class Scene:
 
         def position(t: np.ndarray) -> np.ndarray:
             t = np.atleast_1d(np.asarray(t, dtype=float))
-            return self.body("earth", t) + station_state_icrf(name, t)[0]
+            return self.body("earth", t) + self.station_gcrs(name, t)[0]
 
         return position
 
@@ -66,7 +86,7 @@ class Scene:
 
         def velocity(t: np.ndarray) -> np.ndarray:
             t = np.atleast_1d(np.asarray(t, dtype=float))
-            return self.body_velocity("earth", t) + station_state_icrf(name, t)[1]
+            return self.body_velocity("earth", t) + self.station_gcrs(name, t)[1]
 
         return velocity
 

@@ -12,7 +12,8 @@ Observables (Lubey & Ely 2022 §4.1: one-way radiometric data with a DSAC-class 
   ``(rho(t_rx) - rho(t_rx - T_c)) / T_c`` with T_c the count time. It equals the geometric
   range rate plus ``c (b(t_rx) - b(t_rx - T_c)) / T_c`` ~ ``c f`` (f = clock frequency error).
   Sign: positive when the range grows (spacecraft receding). In frequency units the one-way
-  Doppler shift is f_D = -(F / c) * value (``fsw.astro.constants.MHZ_TO_KM_S``).
+  Doppler shift is f_D = -(F / c) * value, F the X-band uplink carrier the spacecraft receives
+  (``fsw.interface.kinds.DOPPLER_CARRIER_HZ``, ``fsw.astro.constants.MHZ_TO_KM_S``).
 * **Time tag** = onboard clock reading at reception, ``t_rx + b(t_rx)``.
 
 Elevation is that of the uplink at the station at the transmit time, towards the spacecraft's
@@ -33,11 +34,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsw.astro.constants import C_KM_S
-from fsw.astro.stations import elevation, station
 from sim.clock import ClockTruth
 from sim.sensors.config import RadiometricConfig
 from sim.sensors.geometry import Scene
 from sim.sensors.lighttime import light_time
+from sim.truth.stations import station
 
 
 @dataclass(frozen=True)
@@ -56,7 +57,8 @@ class RadioSchedule:
 class RadioData:
     """Radiometric measurements kept after geometry (arrays of equal length, by reception time).
 
-    ``clean`` is the noise-free observable (clock errors included), ``noise`` the drawn noise;
+    ``clean`` is the noise-free observable (clock errors and the run's range bias included),
+    ``noise`` the drawn noise;
     the reported value is ``clean + noise`` plus any measurement-bias fault.
     """
 
@@ -69,6 +71,7 @@ class RadioData:
     elevation_rad: np.ndarray
     light_time_s: np.ndarray
     slot: np.ndarray  # index in the schedule's range_t or doppler_t
+    range_bias_km: float = 0.0  # the run's constant range bias, included in ``clean``
 
     def __len__(self) -> int:
         return int(self.t_rx.size)
@@ -149,7 +152,7 @@ def uplink(scene: Scene, station: str, t_rx: np.ndarray) -> tuple[np.ndarray, np
     tau, _ = light_time(t_rx, r_sc, scene.station(station), scene.station_velocity(station))
     t_tx = t_rx - tau
     geocentric_target = r_sc - scene.body("earth", t_tx)
-    el = np.atleast_1d(elevation(station, t_tx, geocentric_target))
+    el = scene.elevation(station, t_tx, geocentric_target)
     return tau, el
 
 
@@ -179,7 +182,7 @@ def simulate_radiometric(
     """Schedule, geometry, clock and noise of every one-way range and Doppler measurement.
 
     ``rng`` is this sensor's own stream: it draws one range normal per range slot, then one
-    Doppler normal per Doppler slot, always in that order and amount.
+    Doppler normal per Doppler slot, then the run's range bias, always in that order and amount.
     """
     if cfg.pass_plan:
         ps, pe, stations = plan_passes(cfg, scene, t_start, t_end)
@@ -190,6 +193,7 @@ def simulate_radiometric(
         names = cfg.stations
     z_range = rng.standard_normal(sched.range_t.size)
     z_doppler = rng.standard_normal(sched.doppler_t.size)
+    range_bias = cfg.range_bias_sigma_m * 1e-3 * float(rng.standard_normal())  # drawn last: earlier draws keep their values
     if not cfg.pass_plan:
         stations = choose_stations(cfg, scene, sched)
     min_el = np.radians(cfg.min_elevation_deg)
@@ -215,7 +219,7 @@ def simulate_radiometric(
             t_rx=np.concatenate((t_r[keep_r], t_de[keep_d])),
             kind=np.array(["range"] * int(keep_r.sum()) + ["doppler"] * int(keep_d.sum()), dtype=object),
             station=np.full(int(keep_r.sum() + keep_d.sum()), name, dtype=object),
-            clean=np.concatenate((rho[i_r][keep_r], ((rho[i_e] - rho[i_s]) / tc)[keep_d])),
+            clean=np.concatenate((rho[i_r][keep_r] + range_bias, ((rho[i_e] - rho[i_s]) / tc)[keep_d])),
             noise=np.concatenate((sig_r * z_range[r_idx][keep_r], sig_d * z_doppler[d_idx][keep_d])),
             sigma=np.concatenate((np.full(int(keep_r.sum()), sig_r), np.full(int(keep_d.sum()), sig_d))),
             elevation_rad=np.concatenate((el[i_r][keep_r], el[i_e][keep_d])),
@@ -224,8 +228,9 @@ def simulate_radiometric(
         ))
     keys = ("t_rx", "kind", "station", "clean", "noise", "sigma", "elevation_rad", "light_time_s", "slot")
     if not parts:
-        return sched, RadioData(**{k: np.zeros(0, dtype=object if k in ("kind", "station") else float) for k in keys})
+        return sched, RadioData(**{k: np.zeros(0, dtype=object if k in ("kind", "station") else float) for k in keys},
+                                range_bias_km=range_bias)
     merged = {k: np.concatenate([p[k] for p in parts]) for k in keys}
     # Range before Doppler at equal times, so the order never depends on the station loop.
     order = np.lexsort((merged["kind"] == "doppler", merged["t_rx"]))
-    return sched, RadioData(**{k: v[order] for k, v in merged.items()})
+    return sched, RadioData(**{k: v[order] for k, v in merged.items()}, range_bias_km=range_bias)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from fsw.astro.constants import SECONDS_PER_DAY
-from fsw.astro.time import utc_iso_to_tdb
+from sim.truth.timescales import utc_iso_to_tdb
 from sim.dynamics.config import ForceModelConfig, TrajectoryConfig
 from sim.dynamics.propagator import Trajectory
 from sim.trajectories import insight, pathfinder

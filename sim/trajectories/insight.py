@@ -26,8 +26,8 @@ from functools import lru_cache
 import numpy as np
 
 from fsw.astro.constants import GM_MARS, SECONDS_PER_DAY
-from fsw.astro.mars import areocentric_to_body_fixed, body_fixed_to_icrf_matrix
-from fsw.astro.time import utc_iso_to_tdb
+from sim.truth.mars import areocentric_to_body_fixed, body_fixed_to_icrf_matrix
+from sim.truth.timescales import utc_iso_to_tdb
 from sim.dynamics.config import ForceModelConfig, TrajectoryConfig
 from sim.dynamics.propagator import Trajectory, make_table, propagate
 from sim.dynamics.stochastic import StochasticRealisation

@@ -35,7 +35,7 @@ import numpy as np
 
 from fsw.astro.constants import GM_SUN, SECONDS_PER_DAY
 from fsw.astro.ephemeris import default_ephemeris
-from fsw.astro.time import utc_iso_to_tdb
+from sim.truth.timescales import utc_iso_to_tdb
 from sim.dynamics.config import ForceModelConfig, TrajectoryConfig
 from sim.dynamics.propagator import Trajectory, make_table, propagate
 from sim.dynamics.stochastic import DynamicsError, StochasticRealisation

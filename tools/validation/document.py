@@ -25,6 +25,8 @@ from tools.validation import paper
 from tools.validation.claims import TABLE3_CASES, Claim, table3_claims, table4_claim
 from tools.validation.section import Section, claims_lines, figure_links, table
 from tools.validation.tables import WeightRow, means, ok_rows, summary_of, weight_table
+from tools.validation.truth_sections import (CONSISTENCY_COMMAND, CONSISTENCY_FILE, consistency_section,
+                                             model_differences_section)
 
 CAMPAIGNS = ("lubey-ely-table3", "lubey-ely-table4", "detection-matrix", "overinflated")
 
@@ -603,8 +605,12 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
 
         sections.append(optical_nav_section())
         sections[-1].discussion = OPTICAL_DISCUSSION
+    sections.append(model_differences_section())
+    if (campaigns_dir / CONSISTENCY_FILE).is_file():
+        sections.append(consistency_section(campaigns_dir / CONSISTENCY_FILE))
     # the documented procedure, whatever directories this copy was generated from
     commands = [f"navbank campaign {n} --out campaigns/{n}" for n in CAMPAIGNS]
+    commands.append(CONSISTENCY_COMMAND)
     commands.append("navbank validation-report --campaigns campaigns --out docs")
     text = render(sections, generated=time.strftime("%Y-%m-%d"), commands=commands)
     path = out_dir / "validation.md"
