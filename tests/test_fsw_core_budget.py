@@ -52,7 +52,10 @@ def test_quarter_budget_defers_but_loses_nothing_and_changes_no_number(nominal):
     s_full, s_q = full.summary, quarter.summary
     assert s_q.measurements.processed == s_q.measurements.published == s_full.measurements.processed
     assert s_q.measurements.lost == 0
-    assert s_full.budget.max_backlog <= 1
+    # at the full budget a frame that takes a beacon image next to a Mars-system image may defer
+    # an item or two to the next frame (never an overrun); a quarter budget builds real backlogs
+    assert s_full.budget.overruns == 0 and s_full.budget.final_backlog == 0
+    assert s_full.budget.max_backlog <= 5
     assert s_q.budget.max_backlog > 10  # the backlog builds up in tracking passes ...
     assert s_q.budget.final_backlog == 0  # ... and is caught up
     budget = quarter.topic("fsw/budget")

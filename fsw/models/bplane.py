@@ -25,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsw.astro.constants import GM_MARS, MARS_POLE_DEC_DEG, MARS_POLE_RA_DEG
+from fsw.astro.constants import GM_MARS
+from fsw.astro.mars import MARS_POLE_DEC_DEG, MARS_POLE_RA_DEG
 
 
 def mars_pole() -> np.ndarray:
