@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from fsw.filters.adaptive_q import AdaptiveQConfig
 from fsw.filters.kinds import FILTER_KINDS
 from fsw.interface.typed import spec
 from fsw.models.clock import DEFAULT_Q_RANDOM_RUN_PER_S3, DEFAULT_Q_RANDOM_WALK_FM_PER_S, DEFAULT_Q_WHITE_FM_S
@@ -156,6 +157,9 @@ class FilterConfig:
     camera: CameraConfig = spec(CameraConfig(), doc="camera model")
     gate_chi2: float | None = spec(None, doc="edit (do not process) a measurement with chi-square above this", gt=0.0)
     high_q: bool = spec(False, doc="carries inflated dynamic process noise (a -Q filter of Lubey & Ely 2022 §4.4)")
+    process_noise: AdaptiveQConfig = spec(
+        AdaptiveQConfig(), doc="adaptive state-residual process noise (Garhwal, Halder & Sinha eq. 1); fixed: none"
+    )
 
     def __post_init__(self) -> None:
         bad = [k for k in self.processes if k not in FILTER_KINDS]

@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from fsw.filters import kalman
+from fsw.filters.adaptive_q import AdaptiveQ
 from fsw.filters.config import BankConfig, FilterConfig
 from fsw.models.clock import clock_process_noise, clock_transition
 from fsw.models.environment import Environment
@@ -185,6 +186,11 @@ class EKFStack:
         self.maneuvers = sorted(config.maneuvers, key=lambda m: m.epoch_tdb_s)
         self._next_event = -math.inf  # no batch boundary or manoeuvre before this epoch
         self._event_horizon = self.t
+        # per-filter eq. 1 process noise from the state residuals (None: fixed process noise)
+        self.adaptive_q: list[AdaptiveQ | None] = [
+            AdaptiveQ(f.process_noise) if f.process_noise.mode != "fixed" else None for f in cfgs
+        ]
+        self._any_adaptive = any(aq is not None for aq in self.adaptive_q)
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
@@ -259,6 +265,14 @@ class EKFStack:
         t1 = float(t1)
         if not math.isfinite(t1) or t1 < self.t:
             raise ValueError(f"cannot propagate from {self.t} back to {t1}")
+        t_start = self.t
+        self._propagate_events(t1)
+        for i, aq in enumerate(self.adaptive_q):
+            if aq is not None and aq.active and t1 > t_start:
+                q = aq.q_diagonal(t1 - t_start)
+                self.P[i, np.arange(6), np.arange(6)] += q
+
+    def _propagate_events(self, t1: float) -> None:
         if t1 >= self._next_event or t1 > self._event_horizon:
             # batch boundaries and manoeuvres are looked up a day ahead at a time
             horizon = max(t1, self.t + 86400.0)
@@ -333,6 +347,7 @@ class EKFStack:
                gate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Joseph-form update of every filter where ``does``; returns (residual, S, chi2, processed)."""
         n = self.layout.n
+        x_prior = self.x.copy() if self._any_adaptive else self.x
         residual = y[None, :] - h
         Mt = kalman.augmented_joint(self.x, self.P, H, R, residual)
         PX, res, S, chi2, processed = kalman.update(Mt, n, does, gate)
@@ -345,4 +360,7 @@ class EKFStack:
         elif processed.any():
             self.x[processed] = -PX[processed, :, n]
             self.P[processed] = PX[processed, :, :n]
+        for i, aq in enumerate(self.adaptive_q if self._any_adaptive else ()):
+            if aq is not None and processed[i]:
+                aq.add(self.t, self.x[i, 0:6] - x_prior[i, 0:6])
         return res.copy(), S.copy(), chi2, processed
