@@ -191,3 +191,15 @@ def test_ekf_with_fuzzy_mode_runs_and_inflates_p() -> None:
     st.propagate_to(st.t + 600.0)
     assert np.all(np.isfinite(st.P)) and np.all(np.isfinite(st.x))
     print(f"FLR LP: {aq.counters.lp_mean_us:.0f} us per solve over {aq.counters.lp_solves} solves")
+
+
+def test_yaml_mapping_decodes_and_bad_values_are_one_line_errors() -> None:
+    from fsw.interface.typed import DecodeError, decode
+
+    f = decode(FilterConfig, {"name": "a", "process_noise": {"mode": "fuzzy-adaptive", "h": 0.2,
+                                                             "big_m": [1, 1, 1, 1e-3, 1e-3, 1e-3]}})
+    assert f.process_noise.mode == "fuzzy-adaptive" and f.process_noise.big_m == (1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3)
+    assert decode(FilterConfig, {"name": "a"}).process_noise.mode == "fixed"
+    for bad in ({"mode": "fuzzy"}, {"h": 1.0}, {"window": 5, "warmup": 6}):
+        with pytest.raises(DecodeError, match="process_noise"):
+            decode(FilterConfig, {"name": "a", "process_noise": bad})
