@@ -203,3 +203,20 @@ def test_yaml_mapping_decodes_and_bad_values_are_one_line_errors() -> None:
     for bad in ({"mode": "fuzzy"}, {"h": 1.0}, {"window": 5, "warmup": 6}):
         with pytest.raises(DecodeError, match="process_noise"):
             decode(FilterConfig, {"name": "a", "process_noise": bad})
+
+
+@pytest.mark.slow
+def test_short_scenario_flies_in_process_with_a_fuzzy_adaptive_filter(short_e2e_yaml: str) -> None:
+    from fsw.interface import typed
+    from tools.campaign.plan import merge
+    from tools.inprocess import run_in_process
+    from tools.scenario import ScenarioConfig, load_text_scenario
+
+    data = typed.encode(load_text_scenario(short_e2e_yaml))
+    merge(data, {"sim.trajectory.span_days": 2.0})
+    fuzzy = data["fsw"]["bank"]["filters"][0]
+    fuzzy["process_noise"] = {"mode": "fuzzy-adaptive", "window": 10, "warmup": 10, "h": 0.0}
+    result = run_in_process(typed.decode(ScenarioConfig, data), 2)
+    assert fuzzy["name"] in result.summary.filters
+    estimates = result.topic("fsw/estimate/" + fuzzy["name"])
+    assert estimates and all(np.isfinite(e.position_sigma_km) and e.position_sigma_km > 0 for e in estimates)
