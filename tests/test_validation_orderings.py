@@ -42,19 +42,20 @@ def test_table3_orderings(tmp_path):
     claims = {c.key: c for c in table3_claims(chi2, magill)}
     for key in ("no-bias", "small-radio", "medium-radio", "large-radio"):
         assert claims[key].holds, claims[key]
-    # Documented non-reproductions (docs/validation.md, "Why the optical cases differ"): a bias
-    # present from day 0 is absorbed by the optical-only filter, so radio-only and optical-only
-    # share the weight and only the fused filter is penalised.
+    # With the optical-navigation camera (varying roll, star-field attitude, asteroid beacons) a
+    # camera-frame bias present from day 0 is no longer one inertial rotation the optical-only
+    # filter can absorb: its beacon residuals reveal it, the radio-only filter takes the weight and
+    # the fused filter is penalised most — the paper's ordering (its "radio > 0.8" threshold is
+    # what one seed need not reach; docs/validation.md reports the campaign means).
     for size in ("medium", "large"):
         row = chi2[f"{size} bias - optical"]
         assert min(row, key=row.get) == "fused" and row["fused"] < 0.1, row
-        assert row["radio"] < 0.8 and row["optical"] > 0.3, row
+        assert max(row, key=row.get) == "radio" and row["radio"] > 0.6, row
     small = chi2["small bias - optical"]
     assert abs(small["radio"] - small["optical"]) < 0.05 and small["fused"] < small["radio"], small
-    # Magill prefers fused everywhere except the large optical bias, where the optical-only filter wins.
-    for case, row in magill.items():
-        expected = "optical" if case == "large bias - optical" else "fused"
-        assert max(row, key=row.get) == expected, (case, row)
+    # Magill prefers fused in all seven cases, as the paper reports (with the old single-roll camera
+    # the large optical bias was the exception: the optical-only filter absorbed it)
+    assert claims["magill-fused"].holds, claims["magill-fused"]
 
 
 def test_table4_orderings(tmp_path):
