@@ -106,7 +106,7 @@ def test_interrupt_resume_failures_and_rerun_failed(tmp_path, short_scenario):
     failed = [r for r in rows if r.status == "failed"]
     assert len(failed) == FAILED and {r.cell.variant for r in failed} == {"broken"}
     for r in failed:
-        assert r.error.type == "TimeError" and "2018-13-45" in r.error.message
+        assert r.error.type == "TruthTimeError" and "2018-13-45" in r.error.message
         assert "Traceback" in r.error.traceback or "Error" in r.error.traceback
         assert r.seed in (1, 2, 3, 4)
     assert sum(r.status == "ok" for r in rows) == OK
