@@ -8,6 +8,7 @@ import time
 
 from fsw import transport as T
 from fsw.interface import messages as m
+from ground.foxglove.records import is_derived
 from ground.logger import run_logger
 from ground.mcap_io import summary
 
@@ -84,4 +85,7 @@ def test_processes_that_only_know_the_logger_reach_each_other(tmp_path):
     assert seqs == list(range(2000))
     assert results["sim"] == {"fsw": True, "ground": True} and fsw_acked == {"ground": True}
     assert results["ground"].ended_by == "end-of-run"
-    assert summary(path) == {"/fsw/status": 1, "/sim/measurements": 2000, "/sim/status": 1}
+    recorded = summary(path)
+    assert {t: n for t, n in recorded.items() if not is_derived(t)} == {"/fsw/status": 1, "/sim/measurements": 2000,
+                                                                        "/sim/status": 1}
+    assert recorded["/foxglove/log"] == 2  # the logger's Foxglove view: one log line per end-of-run status
