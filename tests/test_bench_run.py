@@ -1,46 +1,127 @@
-"""``navbank bench`` output: one JSON object per line with the fields the CLI documents."""
+"""``navbank bench``: its rows (name, ours, reference, unit, ratio, goal, met) and their verdicts."""
 
 from __future__ import annotations
 
 import io
 import json
+import math
 import sys
 
 import pytest
 
 from tools.bench import run_benchmarks
+from tools.bench.core import InProcessFigures, core_rows, kalman_flops
+from tools.bench.rows import Goal, make_row, skipped_row, text_line
+
+ROW_KEYS = {"name", "ours", "reference", "unit", "ratio", "goal", "met", "meaning"}
 
 
-def test_quick_benchmarks_print_json_lines():
+def test_a_cost_goal_is_met_when_the_reference_takes_long_enough():
+    g = Goal("cost", ">=", 10.0)
+    row = make_row("x", 2.0, 30.0, "us", g, "ref / ours")
+    assert row["ratio"] == 15.0 and row["met"] is True and row["goal"] == "ratio >= 10"
+    assert make_row("x", 4.0, 30.0, "us", g, "")["met"] is False
+
+
+def test_rate_gain_and_absolute_goals():
+    assert make_row("fsw-cpu", 13.0, 10.0, "s", Goal("rate", "<=", 1.3), "")["met"] is True
+    assert make_row("fsw-cpu", 13.1, 10.0, "s", Goal("rate", "<=", 1.3), "")["met"] is False
+    gain = make_row("scaling", 18.6, 10.0, "runs/min", Goal("gain", ">=", 0.85), "")
+    assert gain["ratio"] == pytest.approx(0.86) and gain["met"] is True
+    assert make_row("scaling", 18.4, 10.0, "runs/min", Goal("gain", ">=", 0.85), "")["met"] is False
+    # an absolute goal looks at ours, whatever the reference
+    dec = make_row("decode", 90_000.0, 400_000.0, "msg/s", Goal("rate", ">=", 100_000.0, on="ours"), "")
+    assert dec["ratio"] == pytest.approx(0.225) and dec["met"] is False
+    over = Goal("rate", "<=", 0.0, on="ours")
+    assert make_row("overruns", 0, 2800, "overruns", over, "")["met"] is True
+    assert make_row("overruns", 1, 2800, "overruns", over, "")["met"] is False
+
+
+def test_a_zero_or_nan_measurement_is_never_met():
+    assert make_row("x", 0.0, 0.0, "us", Goal("cost", ">=", 1.0), "")["met"] is False
+    assert math.isinf(make_row("x", 0.0, 1.0, "us", Goal("cost", ">=", 1.0), "")["ratio"])
+
+
+def test_rows_print_as_one_json_object_or_one_line():
+    row = make_row("x", 2.0, 30.0, "us", Goal("cost", ">=", 10.0), "ref / ours", filters=3)
+    assert ROW_KEYS <= set(json.loads(json.dumps(row))) and row["filters"] == 3
+    line = text_line(row)
+    assert line.startswith("x ") and "ratio" in line and "met" in line and "\n" not in line
+    skipped = skipped_row("y", "us", Goal("cost", ">=", 1.0), "no /proc")
+    assert skipped["met"] is False and "skipped: no /proc" in text_line(skipped)
+
+
+def _figures(**changes) -> InProcessFigures:
+    base = dict(span_days=2.0, measurements=1000, filters=3, states=16, fsw_cpu_s=0.5, sim_cpu_s=0.1, wall_s=0.8,
+                overruns=0, frames=2000, max_utilisation=0.5, budget_mode="cpu", repeats=1)
+    base.update(changes)
+    return InProcessFigures(**base)  # type: ignore[arg-type]
+
+
+def test_core_rows_from_fake_timings():
+    rows = {r["name"]: r for r in core_rows(_figures(), full_measurements=29148)}
+    assert list(rows) == ["fsw-core-cpu", "fsw-core-flop-rate", "inprocess-45day-wall", "budget-overruns"]
+    core = rows["fsw-core-cpu"]
+    assert core["ours"] == pytest.approx(500.0) and core["reference"] == 60.0 and core["met"] is False
+    assert core["ratio"] == pytest.approx(0.12)
+    flop = rows["fsw-core-flop-rate"]
+    assert flop["ours"] == pytest.approx(kalman_flops(3, 16) * 1000 / 0.5 / 1e9)
+    assert flop["reference"] > 0 and flop["ratio"] == pytest.approx(flop["ours"] / flop["reference"])
+    wall = rows["inprocess-45day-wall"]  # a 2-day arc's wall scaled to the 45-day run's measurements
+    assert wall["ours"] == pytest.approx(0.8 * 29.148) and wall["extrapolated_from_measurements"] == 1000
+    assert rows["budget-overruns"]["met"] is True
+    fast = {r["name"]: r for r in core_rows(_figures(fsw_cpu_s=0.05, wall_s=2.0, overruns=1))}
+    assert fast["fsw-core-cpu"]["met"] is True and fast["inprocess-45day-wall"]["met"] is True
+    assert fast["budget-overruns"]["met"] is False and "extrapolated_from_measurements" not in fast["inprocess-45day-wall"]
+
+
+def test_kalman_flops_counts_the_dense_bank_arithmetic():
+    # 8 n^3 + 6 n^2 m + 2 n m^2 per filter: ~100 kFLOP for the 3-filter, 16-state bank
+    assert kalman_flops(3, 16) == 3 * (8 * 4096 + 6 * 256 + 32)
+
+
+def test_filter_and_decode_rows_print_json_lines():
     buf = io.StringIO()
-    results = run_benchmarks(json=True, quick=True, out=buf)
+    results = run_benchmarks(json=True, quick=True, out=buf, only=lambda g: g in ("filters", "decode"))
     lines = [json.loads(line) for line in buf.getvalue().splitlines()]
-    assert [r["name"] for r in lines] == ["linear-bank", "ekf-bank-3", "ekf-bank-6"]
-    for r in lines:
-        assert {"name", "ours", "reference", "unit", "ratio"} <= set(r)
-        assert r["ours"] > 0 and r["reference"] > 0
-        assert r["ratio"] == pytest.approx(r["reference"] / r["ours"])
+    assert [r["name"] for r in lines] == ["linear-bank-vs-filterpy", "ekf-update-vs-filterpy-N3",
+                                          "ekf-update-vs-filterpy-N6", "decode-strict"]
     assert lines == json.loads(json.dumps(results))
-    assert lines[0]["filters"] == 6 and lines[0]["states"] == 15 and lines[0]["measurement_dim"] == 2
-    # stacking the filters must beat running them one by one by a wide margin
-    assert lines[0]["ratio"] > 2.0
+    for r in lines:
+        assert ROW_KEYS <= set(r) and isinstance(r["met"], bool)
+        assert r["ours"] > 0 and r["reference"] > 0
+    lin, ekf3, ekf6, dec = lines
+    assert lin["ratio"] == pytest.approx(lin["reference"] / lin["ours"])
+    assert lin["filters"] == 6 and lin["states"] == 15 and lin["measurement_dim"] == 2
+    assert ekf3["filters"] == 3 and ekf6["filters"] == 6 and ekf3["states"] == ekf6["states"] >= 15
+    # stacking the filters must beat running them one by one
+    assert lin["ratio"] > 2.0 and ekf6["ratio"] > 1.0
+    # validating costs something: the strict decoder is slower than json.loads, which checks nothing
+    assert dec["ratio"] == pytest.approx(dec["ours"] / dec["reference"]) and dec["ratio"] < 1.0
 
 
-def test_text_output_has_one_line_per_benchmark():
-    buf = io.StringIO()
-    run_benchmarks(json=False, quick=True, out=buf)
-    text = buf.getvalue().splitlines()
-    assert len(text) == 3 and text[0].startswith("linear-bank") and "ratio" in text[0]
-
-
-def test_without_filterpy_the_linear_entry_is_skipped_with_one_line(monkeypatch, capsys):
+def test_without_filterpy_its_rows_are_skipped_with_one_line(monkeypatch, capsys):
     # an entry of None in sys.modules makes `import filterpy...` raise ImportError, as when it
     # is not installed
     monkeypatch.setitem(sys.modules, "filterpy", None)
     monkeypatch.setitem(sys.modules, "filterpy.kalman", None)
     buf = io.StringIO()
-    results = run_benchmarks(json=True, quick=True, out=buf)
-    assert [r["name"] for r in results] == ["ekf-bank-3", "ekf-bank-6"]
-    assert [json.loads(line)["name"] for line in buf.getvalue().splitlines()] == ["ekf-bank-3", "ekf-bank-6"]
+    results = run_benchmarks(json=True, quick=True, out=buf, only=lambda g: g in ("filters", "decode"))
+    assert [r["name"] for r in results] == ["decode-strict"]
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "skipped" in err[0] and "FilterPy" in err[0]
+
+
+@pytest.mark.slow
+def test_quick_bench_has_a_row_for_every_goal():
+    buf = io.StringIO()
+    rows = run_benchmarks(json=True, quick=True, out=buf)
+    names = [r["name"] for r in rows]
+    for want in ("fsw-core-cpu", "fsw-core-flop-rate", "inprocess-45day-wall", "budget-overruns", "decode-strict",
+                 "linear-bank-vs-filterpy", "ekf-update-vs-filterpy-N3", "ekf-update-vs-filterpy-N6",
+                 "campaign-gain-local", "campaign-45day-runs-per-min", "campaign-gain-dask-localcluster",
+                 "campaign-gain-dask-scheduler"):
+        assert want in names
+    for r in rows:
+        assert ROW_KEYS <= set(r) and isinstance(r["met"], bool)
+        assert not r.get("skipped"), r

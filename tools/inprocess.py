@@ -19,6 +19,17 @@ from ground.report.run_summary import summarize
 from ground.report.summary_types import RunSummary
 
 
+@dataclass(frozen=True)
+class RunTimings:
+    """Where one in-process run's time went: CPU seconds of this process per phase, and the wall."""
+
+    resolve_cpu_s: float  # the scenario's initial state
+    sim_cpu_s: float  # the simulator's stream
+    fsw_cpu_s: float  # the FSW core: start, every measurement, finish
+    summary_cpu_s: float  # the run summary
+    wall_s: float
+
+
 @dataclass
 class RunResult:
     """Everything one in-process run produced: the ``(topic, message)`` pairs in the order the
@@ -29,6 +40,7 @@ class RunResult:
     messages: list[tuple[str, Any]]
     summary: RunSummary
     sim: SimRun | None = None
+    timings: RunTimings | None = None
 
     def topic(self, name: str) -> list[Any]:
         name = name.strip("/")
@@ -47,8 +59,11 @@ def run_in_process(cfg: ScenarioConfig, seed: int | None = None, *, fault_label:
                    keep_sim: bool = False) -> RunResult:
     """Simulate and fly one run in this process; returns all messages and the summary."""
     wall0 = time.perf_counter()
+    c0 = time.process_time()
     resolved, seed = resolve(cfg, seed)
+    c1 = time.process_time()
     run = generate(resolved.sim, seed=seed)
+    c2 = time.process_time()
     out: list[tuple[str, Any]] = []
     core = FswCore(resolved.fsw, lambda topic, msg: out.append((topic, msg)), run_id=run_id)
     out.append((topics.SIM_STATUS, sim_status(run, run_id, "start")))
@@ -64,8 +79,12 @@ def run_in_process(cfg: ScenarioConfig, seed: int | None = None, *, fault_label:
                 progress(done / n)
     out.append((topics.SIM_STATUS, sim_status(run, run_id, "end-of-run")))
     core.finish()
+    c3 = time.process_time()
     if progress is not None:
         progress(1.0)
     summary = summarize(out, scenario=resolved.name, seed=seed, fault=fault_label, t0=run.t_start,
                         wall_time_s=time.perf_counter() - wall0)
-    return RunResult(config=resolved, seed=seed, messages=out, summary=summary, sim=run if keep_sim else None)
+    timings = RunTimings(resolve_cpu_s=c1 - c0, sim_cpu_s=c2 - c1, fsw_cpu_s=c3 - c2,
+                         summary_cpu_s=time.process_time() - c3, wall_s=time.perf_counter() - wall0)
+    return RunResult(config=resolved, seed=seed, messages=out, summary=summary, sim=run if keep_sim else None,
+                     timings=timings)

@@ -4,10 +4,12 @@
   Never fork: the parent may hold Zenoh sessions and threads (the dask client's, the progress
   line's), and a forked child inherits their locks in whatever state they were in. Workers ignore
   SIGINT, so a Ctrl-C in the terminal (sent to the whole process group) reaches only the campaign
-  runner, which decides whether running runs finish or are cancelled.
+  runner, which decides whether running runs finish or are cancelled. Workers live for the whole
+  campaign and are warmed at start (:mod:`tools.campaign.warm`).
 * ``dask`` — a ``distributed.Client`` on an existing scheduler (``--scheduler tcp://HOST:PORT``;
-  its workers need navbank installed), or a ``LocalCluster`` started here on loopback with one
-  single-threaded worker process per ``--workers`` and no dashboard.
+  its workers need navbank installed; ``dask worker --preload tools.campaign.warm`` warms them),
+  or a ``LocalCluster`` started here on loopback with one single-threaded, warmed worker process
+  per ``--workers`` and no dashboard.
 
 Both run :func:`tools.campaign.worker.execute`, so a run gives the same row on either.
 """
@@ -24,6 +26,7 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
 from tools.campaign.task import RunTask
+from tools.campaign.warm import init_worker
 from tools.campaign.worker import RunOutcome, execute
 
 #: (handle, result or None, exception or None)
@@ -57,7 +60,7 @@ class LocalExecutor:
         self._broken = False
 
     def _new_pool(self) -> cf.ProcessPoolExecutor:
-        return cf.ProcessPoolExecutor(max_workers=self.capacity, mp_context=self._ctx, initializer=_ignore_sigint)
+        return cf.ProcessPoolExecutor(max_workers=self.capacity, mp_context=self._ctx, initializer=init_worker)
 
     def submit(self, task: RunTask) -> cf.Future:
         if self._broken:
@@ -117,7 +120,7 @@ class DaskExecutor:
         else:
             self.cluster = distributed.LocalCluster(
                 n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, host="127.0.0.1",
-                dashboard_address=None, silence_logs=logging.ERROR,
+                dashboard_address=None, silence_logs=logging.ERROR, preload=["tools.campaign.warm"],
             )
             self.client = distributed.Client(self.cluster, timeout=connect_timeout_s)
         nthreads = self.client.nthreads()

@@ -1,0 +1,114 @@
+"""Campaign-throughput rows of ``navbank bench``: runs per minute on 1 and 2 workers.
+
+One small nominal campaign of the default scenario (``insight-approach``, fault case ``none``,
+2 runs per worker) is run by :func:`tools.campaign.runner.run_campaign` — the code
+``navbank campaign`` runs — on:
+
+* the local spawn pool with 1 worker (``r1``) and with 2 workers;
+* a dask ``LocalCluster`` with 2 workers;
+* a real dask cluster: ``dask scheduler`` and two ``dask worker`` processes on loopback
+  (:class:`tools.campaign.dask_cluster.LoopbackCluster`), reached by address like any existing one.
+
+Rows: ``campaign-gain-<executor>``: ours = runs/min with 2 workers, reference = r1, ratio = what
+the added worker adds relative to one worker (goal ≥ 0.85); ``campaign-45day-runs-per-min``: the
+2-worker local pool's rate in full 45-day runs per minute (runs of a shorter arc are converted
+by their length) against the goal figure of 60; ``campaign-worker-overhead``: r1 against the
+rate of the same runs flown back to back in this process (what a worker adds per run: process
+start, imports, task and result pickling; goal ≥ 0.9).
+
+Each rate counts from submitting the first run to storing the last row, the executor's start
+included (a campaign pays it once; its share shrinks as campaigns grow). The machine may be
+shared: rates are wall-clock, so other load lowers them.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from tools.bench.rows import Goal, make_row, skipped_row
+from tools.campaign.executors import DaskExecutor, Executor, LocalExecutor
+from tools.campaign.plan import CampaignPlan, expand
+from tools.campaign.runner import run_campaign
+from tools.campaign.spec import load_campaign
+
+GAIN_GOAL = Goal("gain", ">=", 0.85)
+RATE_GOAL = Goal("rate", ">=", 1.0)
+OVERHEAD_GOAL = Goal("rate", ">=", 0.9)
+RUNS_PER_MIN_GOAL = 60.0
+FULL_SPAN_DAYS = 45.0
+
+
+def campaign_text(span_days: float, runs: int, base_seed: int = 1) -> str:
+    """A nominal campaign of the default scenario over ``span_days``, ``runs`` seeds."""
+    return (f"name: bench\ndescription: navbank bench throughput\nseeds: {{count: {runs}, base: {base_seed}}}\n"
+            f"overrides:\n  sim.trajectory.span_days: {span_days}\n"
+            "matrix:\n  - scenarios: [insight-approach]\n    faults: [none]\n")
+
+
+def plan_for(span_days: float, runs: int, directory: Path, base_seed: int = 1) -> CampaignPlan:
+    path = directory / f"bench-{runs}-{base_seed}.yaml"
+    path.write_text(campaign_text(span_days, runs, base_seed), encoding="utf-8")
+    return expand(load_campaign(str(path)))
+
+
+def measure(factory: Callable[[], Executor], plan: CampaignPlan, out: Path) -> dict[str, Any]:
+    """Run ``plan`` on a fresh executor from ``factory``; runs per minute and the run walls."""
+    outcome = run_campaign(plan, out, factory, quiet=True)
+    if outcome.failed or outcome.finished != len(plan.tasks):
+        raise RuntimeError(f"{outcome.failed} of {len(plan.tasks)} bench runs failed ({outcome.failed_ids[:3]})")
+    return {"runs_per_min": outcome.runs_per_min, "runs": outcome.finished, "wall_s": outcome.wall_s,
+            "workers": outcome.workers, "executor": outcome.executor}
+
+
+def campaign_rows(span_days: float, inprocess_wall_s: float | None = None, runs_per_worker: int = 2,
+                  dask: bool = True) -> list[dict[str, Any]]:
+    """The campaign rows (see the module docstring). ``inprocess_wall_s``: one in-process run's wall
+    over the same arc, for the worker-overhead row."""
+    rows: list[dict[str, Any]] = []
+    common = {"span_days": span_days, "scenario": "insight-approach", "runs_per_worker": runs_per_worker}
+    with tempfile.TemporaryDirectory(prefix="navbank-bench-campaign-") as tmp:
+        d = Path(tmp)
+        # distinct seeds per measurement: a campaign directory resumes, and no run repeats another's
+        one = measure(lambda: LocalExecutor(1), plan_for(span_days, runs_per_worker, d, 1), d / "local-1")
+        two = measure(lambda: LocalExecutor(2), plan_for(span_days, 2 * runs_per_worker, d, 101), d / "local-2")
+        r1 = one["runs_per_min"]
+        rows.append(make_row("campaign-gain-local", two["runs_per_min"], r1, "runs/min", GAIN_GOAL,
+                             "(2-worker rate / 1-worker rate) - 1: what the added worker adds (local spawn pool)",
+                             one_worker=one, two_workers=two, **common))
+        rate45 = two["runs_per_min"] * span_days / FULL_SPAN_DAYS
+        rows.append(make_row("campaign-45day-runs-per-min", rate45, RUNS_PER_MIN_GOAL, "runs/min", RATE_GOAL,
+                             "45-day runs per minute on 2 local workers / goal figure 60",
+                             converted_from_span_days=span_days if span_days != FULL_SPAN_DAYS else None, **common))
+        if inprocess_wall_s:
+            rows.append(make_row("campaign-worker-overhead", r1, 60.0 / inprocess_wall_s, "runs/min", OVERHEAD_GOAL,
+                                 "1-worker campaign rate / back-to-back in-process runs' rate (what a worker adds)",
+                                 **common))
+        if not dask:
+            return rows
+        try:
+            lc = measure(lambda: DaskExecutor(2), plan_for(span_days, 2 * runs_per_worker, d, 201), d / "dask-lc")
+            rows.append(make_row("campaign-gain-dask-localcluster", lc["runs_per_min"], r1, "runs/min", GAIN_GOAL,
+                                 "(2-worker LocalCluster rate / 1 local worker's rate) - 1", two_workers=lc, **common))
+        except RuntimeError as exc:
+            rows.append(skipped_row("campaign-gain-dask-localcluster", "runs/min", GAIN_GOAL, str(exc).splitlines()[0]))
+        try:
+            from tools.campaign.dask_cluster import LoopbackCluster
+
+            t0 = time.perf_counter()
+            with LoopbackCluster(2) as cluster:
+                start_s = time.perf_counter() - t0
+                sc = measure(lambda: DaskExecutor(2, cluster.address),
+                             plan_for(span_days, 2 * runs_per_worker, d, 301), d / "dask-sched")
+            rows.append(make_row("campaign-gain-dask-scheduler", sc["runs_per_min"], r1, "runs/min", GAIN_GOAL,
+                                 "(rate on dask scheduler + 2 dask worker processes / 1 local worker's rate) - 1",
+                                 two_workers=sc, cluster_start_s=start_s, **common))
+        except (RuntimeError, TimeoutError, OSError) as exc:
+            rows.append(skipped_row("campaign-gain-dask-scheduler", "runs/min", GAIN_GOAL, str(exc).splitlines()[0]))
+    return rows
+
+
+__all__ = ["campaign_rows", "campaign_text", "plan_for", "measure"]

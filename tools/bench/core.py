@@ -1,0 +1,162 @@
+"""FSW-core rows of ``navbank bench``: the default scenario flown in this process.
+
+* ``fsw-core-cpu``: CPU µs of the FSW core (:class:`fsw.core.FswCore`: start, every measurement,
+  finish) per measurement of the default scenario (``insight-approach``, seed 1), against the
+  goal figure of 60 µs: ratio = 60 µs / ours, met when ≥ 1.
+* ``fsw-core-flop-rate``: the bank's dense Kalman arithmetic per measurement
+  (:func:`kalman_flops`) over that CPU time, against the rate numpy reaches on batched n × n
+  matmuls of the bank's size measured just before: ratio = achieved / matmul rate, goal ≥ 20 %.
+* ``inprocess-45day-wall``: wall time of one whole in-process run (simulator, FSW, summary)
+  of the 45-day scenario, against the goal figure of 3 s: ratio = 3 s / ours.
+* ``budget-overruns``: overruns the frame executive reported at the scenario's nominal budget,
+  start-up frames included; goal 0 (the reference column is the frames run).
+
+``quick`` flies a shorter arc of the same scenario (faults after its end dropped); the 45-day
+wall is then the short run's wall scaled by the measurement count, and the row says so.
+The machine may be shared: CPU time is what the per-measurement rows use; medians of repeats.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import statistics
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from fsw.filters.ekf import union_layout
+
+from tools.bench.rows import Goal, make_row
+from tools.inprocess import RunResult, run_in_process
+from tools.scenario import ScenarioConfig, load_scenario
+
+DEFAULT_SCENARIO = "insight-approach"
+CORE_GOAL_US = 60.0
+INPROCESS_GOAL_S = 3.0
+CORE_GOAL = Goal("cost", ">=", 1.0)
+FLOP_GOAL = Goal("rate", ">=", 0.20)
+WALL_GOAL = Goal("cost", ">=", 1.0)
+OVERRUN_GOAL = Goal("rate", "<=", 0.0, on="ours", unit="overruns")
+
+
+def scenario(span_days: float | None = None, name: str = DEFAULT_SCENARIO) -> ScenarioConfig:
+    """The default scenario, optionally over its first ``span_days`` (faults starting later dropped)."""
+    cfg = load_scenario(name)
+    if span_days is None or span_days >= cfg.sim.trajectory.span_days:
+        return cfg
+    faults = tuple(f for f in cfg.sim.faults if f.onset_day < span_days)
+    sim = dataclasses.replace(cfg.sim, trajectory=dataclasses.replace(cfg.sim.trajectory, span_days=span_days),
+                              faults=faults)
+    return dataclasses.replace(cfg, sim=sim)
+
+
+def kalman_flops(filters: int, states: int, measurement_dim: int = 1) -> float:
+    """Floating-point operations of one measurement's dense Kalman arithmetic in a bank.
+
+    Per filter: the covariance time update ΦPΦᵀ (two n × n products, 4n³) and the Joseph
+    measurement update (I − KH)P(I − KH)ᵀ + KRKᵀ (4n³ + 4n²m), with the gain PHᵀS⁻¹ and
+    HPHᵀ (2n²m + 2nm²). The orbit propagation and the measurement models are left out, so the
+    achieved rate computed from it is a lower bound.
+    """
+    n, m = states, measurement_dim
+    return float(filters * (8 * n**3 + 6 * n**2 * m + 2 * n * m**2))
+
+
+def matmul_rate(batch: int, n: int, seconds: float = 0.3) -> float:
+    """FLOP/s numpy reaches on batched (batch, n, n) @ (batch, n, n) here and now (best of repeats)."""
+    rng = np.random.default_rng(0)
+    A, B = rng.standard_normal((batch, n, n)), rng.standard_normal((batch, n, n))
+    C = np.empty_like(A)
+    number = 200
+    best = float("inf")
+    deadline = time.perf_counter() + seconds
+    while True:
+        t0 = time.perf_counter()
+        for _ in range(number):
+            np.matmul(A, B, out=C)
+        best = min(best, (time.perf_counter() - t0) / number)
+        if time.perf_counter() > deadline:
+            break
+    return 2.0 * n**3 * batch / best
+
+
+@dataclass(frozen=True)
+class InProcessFigures:
+    """Medians over repeats of one in-process run's figures."""
+
+    span_days: float
+    measurements: int
+    filters: int
+    states: int
+    fsw_cpu_s: float
+    sim_cpu_s: float
+    wall_s: float
+    overruns: int
+    frames: int
+    max_utilisation: float
+    budget_mode: str | None
+    repeats: int
+
+
+def fly(span_days: float | None = None, repeats: int = 3, seed: int = 1) -> InProcessFigures:
+    """Fly the default scenario ``repeats`` times in this process; medians of the timings, the
+    worst overrun count."""
+    cfg = scenario(span_days)
+    results: list[RunResult] = []
+    for _ in range(max(1, repeats)):
+        results.append(run_in_process(cfg, seed))
+    timings = [r.timings for r in results if r.timings is not None]
+    last = results[-1]
+    n = last.summary.measurements.processed + last.summary.measurements.rejected
+    bank_cfg = last.config.fsw.bank
+    return InProcessFigures(
+        span_days=cfg.sim.trajectory.span_days, measurements=max(n, 1), filters=len(last.summary.filters),
+        states=union_layout(bank_cfg.filters).n,
+        fsw_cpu_s=statistics.median(t.fsw_cpu_s for t in timings),
+        sim_cpu_s=statistics.median(t.sim_cpu_s for t in timings),
+        wall_s=statistics.median(t.wall_s for t in timings),
+        overruns=max(r.summary.budget.overruns for r in results),
+        frames=last.summary.budget.frames, max_utilisation=last.summary.budget.max_utilisation,
+        budget_mode=last.summary.budget.mode, repeats=len(results),
+    )
+
+
+def core_rows(fig: InProcessFigures, full_measurements: int | None = None) -> list[dict[str, Any]]:
+    """The four rows of this module from one set of figures. ``full_measurements``: the 45-day
+    run's measurement count when ``fig`` is of a shorter arc (its wall is then scaled)."""
+    us = fig.fsw_cpu_s / fig.measurements * 1e6
+    flops = kalman_flops(fig.filters, fig.states)
+    achieved = flops * fig.measurements / fig.fsw_cpu_s if fig.fsw_cpu_s > 0 else 0.0
+    ref_rate = matmul_rate(fig.filters, fig.states)
+    common = {"scenario": DEFAULT_SCENARIO, "span_days": fig.span_days, "measurements": fig.measurements,
+              "repeats": fig.repeats}
+    rows = [
+        make_row("fsw-core-cpu", us, CORE_GOAL_US, "us CPU/measurement", CORE_GOAL,
+                 "goal figure 60 us / ours (>= 1 meets FSW core <= 60 us CPU per measurement)",
+                 matmul_floor_us=flops / ref_rate * 1e6, sim_cpu_s=fig.sim_cpu_s, fsw_cpu_s=fig.fsw_cpu_s, **common),
+        make_row("fsw-core-flop-rate", achieved / 1e9, ref_rate / 1e9, "GFLOP/s", FLOP_GOAL,
+                 "achieved / numpy batched-matmul rate at the bank's size (share of the matmul rate)",
+                 flop_per_measurement=flops, filters=fig.filters, states=fig.states, **common),
+    ]
+    if full_measurements and full_measurements != fig.measurements:
+        wall = fig.wall_s * full_measurements / fig.measurements
+        rows.append(make_row("inprocess-45day-wall", wall, INPROCESS_GOAL_S, "s wall", WALL_GOAL,
+                             "goal figure 3 s / ours (>= 1 meets a 45-day in-process run <= 3 s)",
+                             extrapolated_from_measurements=fig.measurements, measured_wall_s=fig.wall_s,
+                             full_measurements=full_measurements, **common))
+    else:
+        rows.append(make_row("inprocess-45day-wall", fig.wall_s, INPROCESS_GOAL_S, "s wall", WALL_GOAL,
+                             "goal figure 3 s / ours (>= 1 meets a 45-day in-process run <= 3 s)", **common))
+    rows.append(make_row("budget-overruns", fig.overruns, fig.frames, "overruns", OVERRUN_GOAL,
+                         "overruns at the nominal budget incl. start-up (reference: frames run)",
+                         budget_mode=fig.budget_mode, max_utilisation=fig.max_utilisation, **common))
+    return rows
+
+
+#: Measurements of the default scenario's 45-day run (seed 1), to scale a quick run's wall.
+FULL_RUN_MEASUREMENTS = 29148
+
+
+__all__ = ["InProcessFigures", "fly", "core_rows", "kalman_flops", "matmul_rate", "scenario", "FULL_RUN_MEASUREMENTS"]

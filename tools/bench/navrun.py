@@ -1,0 +1,117 @@
+"""``navbank run`` rows of ``navbank bench --full``: the three processes over Zenoh on loopback.
+
+* ``navbank-run-wall``: wall time of ``navbank run`` (launcher, ground, FSW and simulator
+  processes, summary written) on the default scenario, against the goal figure of 10 s.
+* ``navbank-run-fsw-cpu``: CPU seconds of the FSW process over the run against the CPU the same
+  FSW core needs in process for the same scenario and seed (:mod:`tools.bench.core`): what
+  decoding, encoding, transport and waiting add. Goal ≤ 1.3.
+
+The FSW process's CPU is read from ``/proc/<pid>/stat`` (utime + stime) of the launcher's
+``fsw`` child every 50 ms until it exits, so the figure may miss the last 50 ms of it; on a
+system without ``/proc`` the row is skipped.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from tools.bench.rows import Goal, make_row, skipped_row
+from tools.scenario import ScenarioConfig, to_yaml
+
+RUN_GOAL_S = 10.0
+WALL_GOAL = Goal("cost", ">=", 1.0)
+CPU_GOAL = Goal("rate", "<=", 1.3)
+POLL_S = 0.05
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        text = Path(f"/proc/{pid}/task/{pid}/children").read_text()
+    except OSError:
+        return []
+    return [int(c) for c in text.split()]
+
+
+def _role(pid: int) -> str | None:
+    """The navbank role of a launcher child (``python -m tools.cli ROLE ...``)."""
+    try:
+        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return None
+    for i, a in enumerate(argv[:-1]):
+        if a == b"tools.cli":
+            return argv[i + 1].decode(errors="replace")
+    return None
+
+
+def _cpu_s(pid: int) -> float | None:
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    # fields after the command: state is [0], utime [11], stime [12] (proc(5) numbers 14 and 15)
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def run_three_processes(cfg: ScenarioConfig, seed: int, timeout_s: float = 900.0) -> dict[str, Any]:
+    """Run ``navbank run`` on ``cfg`` and return its wall time and every role's last CPU reading."""
+    with tempfile.TemporaryDirectory(prefix="navbank-bench-run-") as tmp:
+        scen = Path(tmp) / "scenario.yaml"
+        scen.write_text(to_yaml(cfg), encoding="utf-8")
+        cmd = [sys.executable, "-m", "tools.cli", "run", "--scenario", str(scen), "--seed", str(seed),
+               "--out", str(Path(tmp) / "run"), "--quiet", "--timeout", str(timeout_s)]
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        cpu: dict[str, float] = {}
+        try:
+            while proc.poll() is None:
+                for child in _children(proc.pid):
+                    role, c = _role(child), _cpu_s(child)
+                    if role is not None and c is not None:
+                        cpu[role] = max(cpu.get(role, 0.0), c)
+                if time.perf_counter() - t0 > timeout_s + 30.0:
+                    proc.kill()
+                    break
+                time.sleep(POLL_S)
+            _, err = proc.communicate(timeout=30.0)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait(timeout=10.0)
+        wall = time.perf_counter() - t0
+    return {"wall_s": wall, "cpu_s": cpu, "returncode": proc.returncode, "stderr_tail": (err or "")[-400:]}
+
+
+def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_s: float, full_measurements: int | None = None,
+                measurements: int | None = None) -> list[dict[str, Any]]:
+    """The two rows; ``core_cpu_s`` is the in-process FSW core CPU of the same scenario and seed.
+    With ``full_measurements`` (a shorter arc was flown) the wall is scaled to the 45-day run."""
+    if not Path("/proc/self/stat").exists():
+        return [skipped_row("navbank-run-wall", "s wall", WALL_GOAL, "needs /proc"),
+                skipped_row("navbank-run-fsw-cpu", "s CPU", CPU_GOAL, "needs /proc")]
+    res = run_three_processes(cfg, seed)
+    if res["returncode"] != 0:
+        reason = f"navbank run exited {res['returncode']}: {res['stderr_tail'].strip().splitlines()[-1:]}"
+        return [skipped_row("navbank-run-wall", "s wall", WALL_GOAL, reason),
+                skipped_row("navbank-run-fsw-cpu", "s CPU", CPU_GOAL, reason)]
+    common = {"span_days": cfg.sim.trajectory.span_days, "seed": seed, "process_cpu_s": res["cpu_s"]}
+    wall = res["wall_s"]
+    if full_measurements and measurements and full_measurements != measurements:
+        common.update(measured_wall_s=wall, extrapolated_from_measurements=measurements)
+        wall *= full_measurements / measurements
+    fsw_cpu = res["cpu_s"].get("fsw", 0.0)
+    return [
+        make_row("navbank-run-wall", wall, RUN_GOAL_S, "s wall", WALL_GOAL,
+                 "goal figure 10 s / ours (>= 1 meets navbank run <= 10 s)", **common),
+        make_row("navbank-run-fsw-cpu", fsw_cpu, core_cpu_s, "s CPU", CPU_GOAL,
+                 "FSW process CPU / the same FSW core's CPU in process (<= 1.3)", **common),
+    ]
+
+
+__all__ = ["navrun_rows", "run_three_processes"]

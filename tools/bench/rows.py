@@ -1,0 +1,74 @@
+"""One benchmark row: what was measured, against what, and whether the goal is met.
+
+Every row holds ``name``, ``ours``, ``reference``, ``unit``, ``ratio``, ``goal`` and ``met``,
+plus ``meaning`` (what the ratio is, in one line) and free details. The ratio is always
+computed from ``ours`` and ``reference`` by the row's :class:`Goal`: ``reference / ours`` for a
+cost (time, CPU per item: higher is better), ``ours / reference`` for a rate or a share, and
+``ours / reference − 1`` for the gain of an added worker; the goal is a bound (``>=`` or ``<=``)
+on that ratio, or on ``ours`` itself where the goal is absolute (budget overruns, decoded
+messages per second).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+#: How the ratio is formed: ``cost`` reference / ours (a time: smaller ours is better), ``rate``
+#: ours / reference (a throughput or a share), ``gain`` ours / reference − 1 (what one more worker adds).
+RatioKind = Literal["cost", "rate", "gain"]
+
+
+@dataclass(frozen=True)
+class Goal:
+    """``<on> op value``, where ``on`` is the ratio (formed as ``kind`` says) or ours itself (a
+    count, or an absolute figure such as messages per second)."""
+
+    kind: RatioKind
+    op: Literal[">=", "<="]
+    value: float
+    on: Literal["ratio", "ours"] = "ratio"
+    unit: str = ""
+
+    def ratio(self, ours: float, reference: float) -> float:
+        num, den = (reference, ours) if self.kind == "cost" else (ours, reference)
+        if den == 0:
+            return math.inf if num > 0 else math.nan
+        return num / den - (1.0 if self.kind == "gain" else 0.0)
+
+    def met(self, ours: float, ratio: float) -> bool:
+        x = ratio if self.on == "ratio" else ours
+        if math.isnan(x):
+            return False
+        return x >= self.value if self.op == ">=" else x <= self.value
+
+    def text(self) -> str:
+        unit = f" {self.unit}" if self.unit else ""
+        return f"{self.on} {self.op} {self.value:g}{unit}"
+
+
+def make_row(name: str, ours: float, reference: float, unit: str, goal: Goal, meaning: str,
+             **details: Any) -> dict[str, Any]:
+    """A benchmark row (a JSON-ready dict) with its ratio and verdict computed from ``goal``."""
+    ratio = goal.ratio(ours, reference)
+    return {"name": name, "ours": float(ours), "reference": float(reference), "unit": unit, "ratio": ratio,
+            "goal": goal.text(), "met": goal.met(float(ours), ratio), "meaning": meaning, **details}
+
+
+def skipped_row(name: str, unit: str, goal: Goal, reason: str) -> dict[str, Any]:
+    """A row that could not be measured in this run (not met; ``skipped`` says why)."""
+    return {"name": name, "ours": None, "reference": None, "unit": unit, "ratio": None, "goal": goal.text(),
+            "met": False, "meaning": "", "skipped": reason}
+
+
+def text_line(row: dict[str, Any]) -> str:
+    """One human-readable line of a row."""
+    if row.get("skipped"):
+        return f"{row['name']:<28} skipped: {row['skipped']}"
+    verdict = "met" if row["met"] else "NOT met"
+    return (f"{row['name']:<28} ours {row['ours']:12.4g} {row['unit']:<16} reference {row['reference']:12.4g}"
+            f"   ratio {row['ratio']:8.3g}  goal {row['goal']:<12} {verdict:<8} ({row['meaning']})")
+
+
+__all__ = ["Goal", "make_row", "skipped_row", "text_line"]
