@@ -45,7 +45,7 @@ class ResultRow(JsonRecord):
     """One finished run of a campaign. ``host`` and ``pid`` name the worker (absent when the
     executor lost the run); ``campaign`` and ``executor`` are added by the runner."""
 
-    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"host", "pid", "campaign", "executor"})
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"host", "pid", "campaign", "executor", "cpu_time_s"})
 
     id: str = spec(doc="run id: hash of the resolved scenario and seed")
     cell: Cell = spec(doc="the run's cell")
@@ -59,6 +59,7 @@ class ResultRow(JsonRecord):
     error: ErrorRecord | None = spec(None, doc="why the run failed")
     summary: RunSummary | None = spec(None, doc="the run's summary (None when it failed)")
     wall_time_s: float | None = spec(None, doc="wall-clock time of the run", unit="s")
+    cpu_time_s: float | None = spec(None, doc="CPU time of the run in its worker process", unit="s")
     finished_utc: str = spec("", doc="when the run finished, ISO 8601 UTC")
     campaign: str | None = spec(None, doc="campaign name")
     executor: str | None = spec(None, doc="executor that ran it: 'local' or 'dask'")

@@ -16,13 +16,18 @@ by their length) against the goal figure of 60; ``campaign-worker-overhead``: r1
 rate of the same runs flown back to back in this process (what a worker adds per run: process
 start, imports, task and result pickling; goal ≥ 0.9).
 
-Each rate counts from submitting the first run to storing the last row, the executor's start
-included (a campaign pays it once; its share shrinks as campaigns grow). The machine may be
-shared: rates are wall-clock, so other load lowers them.
+Each rate is the steady state of warm workers: the executor first runs one short priming run
+per worker (which starts and warms it, :mod:`tools.campaign.warm`; its time is the detail
+``start_s``, paid once per campaign), then the rate counts from submitting the first measured
+run to storing the last row. The machine may be shared: rates are wall-clock, so other load
+lowers them — where the kernel shares CPU per session (autogroup), a campaign's processes share
+one session's part however many workers it has. The detail ``cpu_gain`` (from the runs' CPU
+times, :func:`cpu_gain`) says what the second worker would add with a core of its own.
 """
 
 from __future__ import annotations
 
+import statistics
 import tempfile
 import time
 from collections.abc import Callable
@@ -34,12 +39,14 @@ from tools.campaign.executors import DaskExecutor, Executor, LocalExecutor
 from tools.campaign.plan import CampaignPlan, expand
 from tools.campaign.runner import run_campaign
 from tools.campaign.spec import load_campaign
+from tools.campaign.store import read_rows
 
 GAIN_GOAL = Goal("gain", ">=", 0.85)
 RATE_GOAL = Goal("rate", ">=", 1.0)
 OVERHEAD_GOAL = Goal("rate", ">=", 0.9)
 RUNS_PER_MIN_GOAL = 60.0
 FULL_SPAN_DAYS = 45.0
+PRIME_SPAN_DAYS = 0.25  # the priming runs: one per worker, to start and warm it
 
 
 def campaign_text(span_days: float, runs: int, base_seed: int = 1) -> str:
@@ -55,13 +62,32 @@ def plan_for(span_days: float, runs: int, directory: Path, base_seed: int = 1) -
     return expand(load_campaign(str(path)))
 
 
-def measure(factory: Callable[[], Executor], plan: CampaignPlan, out: Path) -> dict[str, Any]:
-    """Run ``plan`` on a fresh executor from ``factory``; runs per minute and the run walls."""
-    outcome = run_campaign(plan, out, factory, quiet=True)
-    if outcome.failed or outcome.finished != len(plan.tasks):
+def measure(factory: Callable[[], Executor], plan: CampaignPlan, prime: CampaignPlan, out: Path) -> dict[str, Any]:
+    """Runs per minute of ``plan`` on a fresh executor from ``factory`` once its workers are up:
+    the executor first runs ``prime`` (one short run per worker), which starts and warms every
+    worker; ``start_s`` is how long that took."""
+    t0 = time.perf_counter()
+    executor = factory()
+    try:
+        primed = run_campaign(prime, out / "prime", executor, quiet=True)
+        start_s = time.perf_counter() - t0
+        outcome = run_campaign(plan, out / "runs", executor, quiet=True)
+    finally:
+        executor.close()
+    if primed.failed or outcome.failed or outcome.finished != len(plan.tasks):
         raise RuntimeError(f"{outcome.failed} of {len(plan.tasks)} bench runs failed ({outcome.failed_ids[:3]})")
+    cpu = [r.cpu_time_s for r in read_rows(out / "runs" / "runs.jsonl").rows if r.cpu_time_s is not None]
     return {"runs_per_min": outcome.runs_per_min, "runs": outcome.finished, "wall_s": outcome.wall_s,
-            "workers": outcome.workers, "executor": outcome.executor}
+            "workers": outcome.workers, "executor": outcome.executor, "start_s": start_s,
+            "run_cpu_s": statistics.median(cpu) if cpu else None}
+
+
+def cpu_gain(one: dict[str, Any], two: dict[str, Any]) -> float | None:
+    """What the second worker would add with a core to itself: 2 × (run CPU on 1 worker / run CPU
+    on 2) − 1. It tells whether the runs themselves slow down side by side (memory, caches),
+    which wall-clock rates cannot when other load on the machine takes the second core."""
+    c1, c2 = one.get("run_cpu_s"), two.get("run_cpu_s")
+    return 2.0 * c1 / c2 - 1.0 if c1 and c2 else None
 
 
 def campaign_rows(span_days: float, inprocess_wall_s: float | None = None, runs_per_worker: int = 2,
@@ -72,13 +98,22 @@ def campaign_rows(span_days: float, inprocess_wall_s: float | None = None, runs_
     common = {"span_days": span_days, "scenario": "insight-approach", "runs_per_worker": runs_per_worker}
     with tempfile.TemporaryDirectory(prefix="navbank-bench-campaign-") as tmp:
         d = Path(tmp)
-        # distinct seeds per measurement: a campaign directory resumes, and no run repeats another's
-        one = measure(lambda: LocalExecutor(1), plan_for(span_days, runs_per_worker, d, 1), d / "local-1")
-        two = measure(lambda: LocalExecutor(2), plan_for(span_days, 2 * runs_per_worker, d, 101), d / "local-2")
+
+        made = [0]
+
+        def plan(workers: int) -> tuple[CampaignPlan, CampaignPlan]:
+            """The measured plan and its priming plan; distinct seeds per measurement."""
+            made[0] += 1
+            base = 100 * made[0]
+            return (plan_for(span_days, workers * runs_per_worker, d, base),
+                    plan_for(PRIME_SPAN_DAYS, workers, d, base + 50))
+
+        one = measure(lambda: LocalExecutor(1), *plan(1), d / "local-1")
+        two = measure(lambda: LocalExecutor(2), *plan(2), d / "local-2")
         r1 = one["runs_per_min"]
         rows.append(make_row("campaign-gain-local", two["runs_per_min"], r1, "runs/min", GAIN_GOAL,
                              "(2-worker rate / 1-worker rate) - 1: what the added worker adds (local spawn pool)",
-                             one_worker=one, two_workers=two, **common))
+                             one_worker=one, two_workers=two, cpu_gain=cpu_gain(one, two), **common))
         rate45 = two["runs_per_min"] * span_days / FULL_SPAN_DAYS
         rows.append(make_row("campaign-45day-runs-per-min", rate45, RUNS_PER_MIN_GOAL, "runs/min", RATE_GOAL,
                              "45-day runs per minute on 2 local workers / goal figure 60",
@@ -90,9 +125,10 @@ def campaign_rows(span_days: float, inprocess_wall_s: float | None = None, runs_
         if not dask:
             return rows
         try:
-            lc = measure(lambda: DaskExecutor(2), plan_for(span_days, 2 * runs_per_worker, d, 201), d / "dask-lc")
+            lc = measure(lambda: DaskExecutor(2), *plan(2), d / "dask-lc")
             rows.append(make_row("campaign-gain-dask-localcluster", lc["runs_per_min"], r1, "runs/min", GAIN_GOAL,
-                                 "(2-worker LocalCluster rate / 1 local worker's rate) - 1", two_workers=lc, **common))
+                                 "(2-worker LocalCluster rate / 1 local worker's rate) - 1", two_workers=lc,
+                                 cpu_gain=cpu_gain(one, lc), **common))
         except RuntimeError as exc:
             rows.append(skipped_row("campaign-gain-dask-localcluster", "runs/min", GAIN_GOAL, str(exc).splitlines()[0]))
         try:
@@ -100,12 +136,11 @@ def campaign_rows(span_days: float, inprocess_wall_s: float | None = None, runs_
 
             t0 = time.perf_counter()
             with LoopbackCluster(2) as cluster:
-                start_s = time.perf_counter() - t0
-                sc = measure(lambda: DaskExecutor(2, cluster.address),
-                             plan_for(span_days, 2 * runs_per_worker, d, 301), d / "dask-sched")
+                cluster_start_s = time.perf_counter() - t0
+                sc = measure(lambda: DaskExecutor(2, cluster.address), *plan(2), d / "dask-sched")
             rows.append(make_row("campaign-gain-dask-scheduler", sc["runs_per_min"], r1, "runs/min", GAIN_GOAL,
                                  "(rate on dask scheduler + 2 dask worker processes / 1 local worker's rate) - 1",
-                                 two_workers=sc, cluster_start_s=start_s, **common))
+                                 two_workers=sc, cluster_start_s=cluster_start_s, cpu_gain=cpu_gain(one, sc), **common))
         except (RuntimeError, TimeoutError, OSError) as exc:
             rows.append(skipped_row("campaign-gain-dask-scheduler", "runs/min", GAIN_GOAL, str(exc).splitlines()[0]))
     return rows

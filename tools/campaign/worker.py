@@ -142,6 +142,7 @@ class RunOutcome:
 def execute(task: RunTask) -> RunOutcome:
     """Run one campaign run (see the module docstring)."""
     t0 = time.perf_counter()
+    c0 = time.process_time()
     row = dataclasses.replace(base_row(task), host=socket.gethostname(), pid=os.getpid())
     weights = None
     recording = None
@@ -159,6 +160,6 @@ def execute(task: RunTask) -> RunOutcome:
         del result
     except Exception as exc:  # a failed run is data for the campaign, not the end of it
         row = dataclasses.replace(row, status="failed", error=error_record(exc), summary=None)
-    return RunOutcome(dataclasses.replace(row, wall_time_s=time.perf_counter() - t0,
+    return RunOutcome(dataclasses.replace(row, wall_time_s=time.perf_counter() - t0, cpu_time_s=time.process_time() - c0,
                                           finished_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())),
                       weights, recording)
