@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import io
 import json
-import math
 import sys
 
 import pytest
@@ -37,9 +36,13 @@ def test_rate_gain_and_absolute_goals():
     assert make_row("overruns", 1, 2800, "overruns", over, "")["met"] is False
 
 
-def test_a_zero_or_nan_measurement_is_never_met():
-    assert make_row("x", 0.0, 0.0, "us", Goal("cost", ">=", 1.0), "")["met"] is False
-    assert math.isinf(make_row("x", 0.0, 1.0, "us", Goal("cost", ">=", 1.0), "")["ratio"])
+def test_a_ratio_that_is_not_a_number_is_null_and_a_zero_measurement_is_never_met():
+    nan = make_row("x", 0.0, 0.0, "us", Goal("cost", ">=", 1.0), "")
+    assert nan["met"] is False and nan["ratio"] is None
+    inf = make_row("x", 0.0, 1.0, "us", Goal("cost", ">=", 1.0), "")
+    assert inf["ratio"] is None and inf["met"] is True  # no time at all beats any reference
+    json.loads(json.dumps(nan, allow_nan=False))
+    assert "ratio        -" in text_line(nan)
 
 
 def test_rows_print_as_one_json_object_or_one_line():
@@ -52,7 +55,7 @@ def test_rows_print_as_one_json_object_or_one_line():
 
 
 def _figures(**changes) -> InProcessFigures:
-    base = dict(span_days=2.0, measurements=1000, filters=3, states=16, fsw_cpu_s=0.5, sim_cpu_s=0.1, wall_s=0.8,
+    base = dict(span_days=2.0, measurements=1000, filters=3, states=16, fsw_cpu_s=0.5, sim_cpu_s=0.1, run_cpu_s=0.7, wall_s=0.8,
                 overruns=0, frames=2000, max_utilisation=0.5, budget_mode="cpu", repeats=1)
     base.update(changes)
     return InProcessFigures(**base)  # type: ignore[arg-type]
@@ -125,3 +128,15 @@ def test_quick_bench_has_a_row_for_every_goal():
     for r in rows:
         assert ROW_KEYS <= set(r) and isinstance(r["met"], bool)
         assert not r.get("skipped"), r
+
+
+def test_campaign_bench_plans_and_cpu_gain(tmp_path):
+    from tools.bench.campaigns import cpu_gain, plan_for
+
+    plan = plan_for(2.0, 4, tmp_path, base_seed=101)
+    assert [t.seed for t in plan.tasks] == [101, 102, 103, 104]
+    assert {t.span_days for t in plan.tasks} == {2.0} and {t.fault_class for t in plan.tasks} == {"none"}
+    # runs that take as much CPU side by side as alone: the second worker adds a whole worker
+    assert cpu_gain({"run_cpu_s": 1.0}, {"run_cpu_s": 1.0}) == pytest.approx(1.0)
+    assert cpu_gain({"run_cpu_s": 1.0}, {"run_cpu_s": 1.25}) == pytest.approx(0.6)
+    assert cpu_gain({"run_cpu_s": None}, {"run_cpu_s": 1.0}) is None

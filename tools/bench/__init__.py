@@ -3,19 +3,17 @@
 Rows (every one: ``name``, ``ours``, ``reference``, ``unit``, ``ratio``, ``goal``, ``met``,
 ``meaning`` and details; :mod:`tools.bench.rows`):
 
-=================================  ==========================================================
-``fsw-core-cpu``                   FSW core CPU per measurement, default scenario (:mod:`.core`)
-``fsw-core-flop-rate``             its arithmetic's rate / numpy batched-matmul rate
-``inprocess-45day-wall``           a whole 45-day in-process run (simulator included)
-``budget-overruns``                at the nominal budget, start-up included
-``decode-strict``                  strict ICD decoding vs ``json.loads`` (:mod:`.decode`)
-``linear-bank-vs-filterpy``        linear bank vs FilterPy ``KalmanFilter`` (:mod:`.filters`)
-``ekf-update-vs-filterpy-N3/N6``   EKF bank update vs FilterPy ``ExtendedKalmanFilter``
-``ekf-bank-stacking-3/6``          stacked EKF bank vs the same filters one by one (not --quick)
-``campaign-*``                     runs/min on 1 and 2 workers: local pool, dask LocalCluster,
-                                   dask scheduler + worker processes (:mod:`.campaigns`)
-``navbank-run-wall``, ``-fsw-cpu``  ``navbank run``'s three processes (``--full`` only, :mod:`.navrun`)
-=================================  ==========================================================
+* :mod:`.core` — ``fsw-core-cpu`` (FSW core CPU per measurement, default scenario),
+  ``fsw-core-flop-rate`` (its arithmetic's rate / numpy batched-matmul rate),
+  ``inprocess-45day-wall`` (a whole 45-day in-process run, simulator included),
+  ``budget-overruns`` (at the nominal budget, start-up included);
+* :mod:`.decode` — ``decode-strict`` (strict ICD decoding vs ``json.loads``);
+* :mod:`.filters` — ``linear-bank-vs-filterpy``, ``ekf-update-vs-filterpy-N3``/``-N6`` (FilterPy
+  ``KalmanFilter`` / ``ExtendedKalmanFilter``) and, not with ``quick``, ``ekf-bank-stacking-3``/``-6``
+  (the stacked EKF bank vs the same filters one by one);
+* :mod:`.campaigns` — ``campaign-*``: runs/min on 1 and 2 workers on the local pool, a dask
+  LocalCluster and a dask scheduler with worker processes;
+* :mod:`.navrun` — ``navbank-run-wall``, ``navbank-run-fsw-cpu`` (``full`` only: starts ``navbank run``).
 
 ``quick`` flies a 2-day arc of the default scenario instead of 45 days (walls are scaled to the
 45-day run by measurement count and say so), runs campaigns of 2-day runs, one repeat each; it
@@ -87,7 +85,7 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
         from tools.bench.campaigns import campaign_rows
 
         assert fig is not None
-        for row in campaign_rows(fig.span_days, inprocess_wall_s=fig.wall_s, runs_per_worker=2):
+        for row in campaign_rows(fig.span_days, inprocess_cpu_s=fig.run_cpu_s, runs_per_worker=2):
             emit(row)
     if full and want("navrun"):
         from tools.bench.navrun import navrun_rows

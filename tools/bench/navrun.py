@@ -6,7 +6,10 @@
   FSW core needs in process for as many measurements of the same scenario (:mod:`tools.bench.core`):
   what decoding, encoding, transport and waiting add. Goal ≤ 1.3.
 
-Both always fly the whole default scenario (45 days), ``--quick`` or not: a run's process start
+* ``budget-overruns-navbank-run``: the overruns the FSW process reported (its ``summary.json``),
+  start-up frames included; goal 0.
+
+All three always fly the whole default scenario (45 days), ``--quick`` or not: a run's process start
 is a fixed cost, which no scaling of a shorter run would show.
 
 The FSW process's CPU is read from ``/proc/<pid>/stat`` (utime + stime) of the launcher's
@@ -25,6 +28,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from tools.bench.core import OVERRUN_GOAL
 from tools.bench.rows import Goal, make_row, skipped_row
 from tools.scenario import ScenarioConfig, to_yaml
 
@@ -90,12 +94,13 @@ def run_three_processes(cfg: ScenarioConfig, seed: int, timeout_s: float = 900.0
                 proc.wait(timeout=10.0)
         wall = time.perf_counter() - t0
         try:
-            counts = json.loads((Path(tmp) / "run" / "summary.json").read_text())["measurements"]
-            processed = int(counts["processed"]) + int(counts["rejected"])
+            summary = json.loads((Path(tmp) / "run" / "summary.json").read_text())
+            published = int(summary["measurements"]["published"])
+            budget = {k: summary["budget"][k] for k in ("overruns", "frames", "max_utilisation", "mode")}
         except (OSError, ValueError, KeyError, TypeError):
-            processed = 0
+            published, budget = 0, {}
     return {"wall_s": wall, "cpu_s": cpu, "returncode": proc.returncode, "stderr_tail": (err or "")[-400:],
-            "measurements": processed}
+            "measurements": published, "budget": budget}
 
 
 def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float) -> list[dict[str, Any]]:
@@ -113,7 +118,12 @@ def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float) -> list[dict
     common = {"span_days": cfg.sim.trajectory.span_days, "seed": seed, "measurements": res["measurements"],
               "process_cpu_s": res["cpu_s"]}
     core_cpu_s = core_cpu_us * 1e-6 * res["measurements"]
-    return [
+    b = res["budget"]
+    overruns = ([make_row("budget-overruns-navbank-run", b["overruns"], b["frames"], "overruns", OVERRUN_GOAL,
+                          "overruns of the FSW process at the nominal budget incl. its start-up (reference: frames run)",
+                          budget_mode=b["mode"], max_utilisation=b["max_utilisation"], **common)]
+                if b else [skipped_row("budget-overruns-navbank-run", "overruns", OVERRUN_GOAL, "no summary.json")])
+    return overruns + [
         make_row("navbank-run-wall", res["wall_s"], RUN_GOAL_S, "s wall", WALL_GOAL,
                  "goal figure 10 s / ours (>= 1 meets navbank run <= 10 s)", **common),
         make_row("navbank-run-fsw-cpu", res["cpu_s"].get("fsw", 0.0), core_cpu_s, "s CPU", CPU_GOAL,

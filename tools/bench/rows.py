@@ -52,8 +52,11 @@ def make_row(name: str, ours: float, reference: float, unit: str, goal: Goal, me
              **details: Any) -> dict[str, Any]:
     """A benchmark row (a JSON-ready dict) with its ratio and verdict computed from ``goal``."""
     ratio = goal.ratio(ours, reference)
-    return {"name": name, "ours": float(ours), "reference": float(reference), "unit": unit, "ratio": ratio,
-            "goal": goal.text(), "met": goal.met(float(ours), ratio), "meaning": meaning, **details}
+    met = goal.met(float(ours), ratio)
+    # JSON has no inf or NaN: a ratio that is not a number (a zero measurement) is null
+    return {"name": name, "ours": float(ours), "reference": float(reference), "unit": unit,
+            "ratio": ratio if math.isfinite(ratio) else None, "goal": goal.text(), "met": met, "meaning": meaning,
+            **details}
 
 
 def skipped_row(name: str, unit: str, goal: Goal, reason: str) -> dict[str, Any]:
@@ -67,8 +70,9 @@ def text_line(row: dict[str, Any]) -> str:
     if row.get("skipped"):
         return f"{row['name']:<28} skipped: {row['skipped']}"
     verdict = "met" if row["met"] else "NOT met"
+    ratio = "-" if row["ratio"] is None else f"{row['ratio']:.3g}"
     return (f"{row['name']:<28} ours {row['ours']:12.4g} {row['unit']:<16} reference {row['reference']:12.4g}"
-            f"   ratio {row['ratio']:8.3g}  goal {row['goal']:<12} {verdict:<8} ({row['meaning']})")
+            f"   ratio {ratio:>8}  goal {row['goal']:<12} {verdict:<8} ({row['meaning']})")
 
 
 __all__ = ["Goal", "make_row", "skipped_row", "text_line"]
