@@ -5,7 +5,6 @@
 * ``navbank-run-fsw-cpu``: CPU seconds of the FSW process over the run against the CPU the same
   FSW core needs in process for as many measurements of the same scenario (:mod:`tools.bench.core`):
   what decoding, encoding, transport and waiting add. Goal ≤ 1.3.
-
 * ``budget-overruns-navbank-run``: the overruns the FSW process reported (its ``summary.json``),
   start-up frames included; goal 0.
 
