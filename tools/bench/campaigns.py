@@ -27,6 +27,7 @@ times, :func:`cpu_gain`) says what the second worker would add with a core of it
 
 from __future__ import annotations
 
+import itertools
 import statistics
 import tempfile
 import time
@@ -98,13 +99,11 @@ def campaign_rows(span_days: float, inprocess_cpu_s: float | None = None, runs_p
     common = {"span_days": span_days, "scenario": "insight-approach", "runs_per_worker": runs_per_worker}
     with tempfile.TemporaryDirectory(prefix="navbank-bench-campaign-") as tmp:
         d = Path(tmp)
-
-        made = [0]
+        bases = itertools.count(100, 100)
 
         def plan(workers: int) -> tuple[CampaignPlan, CampaignPlan]:
             """The measured plan and its priming plan; distinct seeds per measurement."""
-            made[0] += 1
-            base = 100 * made[0]
+            base = next(bases)
             return (plan_for(span_days, workers * runs_per_worker, d, base),
                     plan_for(PRIME_SPAN_DAYS, workers, d, base + 50))
 
