@@ -140,3 +140,15 @@ def test_campaign_bench_plans_and_cpu_gain(tmp_path):
     assert cpu_gain({"run_cpu_s": 1.0}, {"run_cpu_s": 1.0}) == pytest.approx(1.0)
     assert cpu_gain({"run_cpu_s": 1.0}, {"run_cpu_s": 1.25}) == pytest.approx(0.6)
     assert cpu_gain({"run_cpu_s": None}, {"run_cpu_s": 1.0}) is None
+
+
+def test_an_in_process_run_says_where_its_cpu_went():
+    from tools.bench.core import scenario
+    from tools.inprocess import run_in_process
+
+    result = run_in_process(scenario(0.25), 1)
+    t = result.timings
+    assert t is not None and result.summary.measurements.published > 0
+    assert t.resolve_cpu_s >= 0 and t.sim_cpu_s > 0 and t.fsw_cpu_s > 0 and t.summary_cpu_s > 0 and t.wall_s > 0
+    # the simulator's faults that start after the shortened arc are dropped, the others kept
+    assert scenario(0.25).sim.faults == () and scenario(None).sim.faults

@@ -64,3 +64,14 @@ def test_campaign_on_a_real_dask_scheduler_equals_the_local_executor(tmp_path, s
     for rid, row in rows.items():
         assert row.executor == "dask" and expected[rid].executor == "local"
         assert _comparable(row) == _comparable(expected[rid]), rid
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(120)
+def test_a_cluster_whose_workers_cannot_start_is_torn_down_with_their_logs():
+    cluster = LoopbackCluster(2, start_timeout_s=60.0, preload="navbank_no_such_module")
+    with pytest.raises((RuntimeError, TimeoutError)) as err:
+        cluster.__enter__()
+    assert "navbank_no_such_module" in str(err.value)
+    procs = cluster.processes()
+    assert len(procs) == 3 and all(p.poll() is not None for p in procs)
