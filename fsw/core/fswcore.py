@@ -180,7 +180,8 @@ class FswCore:
 
     def _queue(self, meas: m.Measurement) -> None:
         self.advance_to(meas.t_s)
-        load = Load(active_filters=int(self.bank.active.sum()), networks=len(self.networks))
+        load = Load(active_filters=int(self.bank.active.sum()), networks=len(self.networks),
+                    adaptive_lp=self.bank.adaptive_lp_cost())
         self.executive.submit(build_job(self, self.PIPELINE, meas, self.config.budget, load))
         if self.rqp.enabled or self.rqp.busy:
             # one slice of the search per measurement, lowest priority, its own lane: never ahead
