@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 from fsw.executive.config import BudgetConfig
 from fsw.fdir.config import DetectorConfig
@@ -146,8 +146,14 @@ class FswConfig:
     initial_state: InitialState | None = spec(
         None, doc="a-priori state; none: the launcher derives it from the scenario (design trajectory + a-priori error draw)"
     )
+    central_body: Literal["mars", "earth"] = spec(
+        "mars", doc="mars: the Mars-centred EKF bank (fsw.filters.bank); earth: the Earth-orbit bank of ground-station "
+        "tracking after injection (fsw.filters.orbit_bank: two-body + J2, range, range rate, azimuth, elevation; "
+        "each filter's name, process_noise, velocity_noise_psd and a-priori sigmas are used)")
 
     def __post_init__(self) -> None:
+        if self.central_body == "earth" and self.rqp.enabled:
+            raise ValueError("RQP adaptation is not available with the Earth-orbit bank (central_body: earth)")
         names = [g.network for g in self.gating]
         if len(set(names)) != len(names):
             raise ValueError(f"each gating network may appear once, got {names}")

@@ -72,6 +72,17 @@ def initial_state(cfg: ScenarioConfig, seed: int) -> InitialState:
     Drawn from its own generator so it never changes the simulator's noise draws."""
     if cfg.fsw.initial_state is not None:
         return cfg.fsw.initial_state
+    if cfg.sim.leo is not None:
+        # the Earth-orbit case: the a-priori is the planned injection state (the truth is that
+        # plus the injection dispersion; Garhwal, Halder & Sinha's poor a-priori)
+        from sim.scenarios.leo_injection import planned_state
+        from sim.truth.earth import EarthOrientation
+        from sim.truth.timescales import utc_iso_to_tdb
+
+        t0 = utc_iso_to_tdb(cfg.sim.leo.epoch_utc)
+        z = planned_state(cfg.sim.leo, t0, EarthOrientation(t0 - 600.0, t0 + 600.0))
+        return InitialState(t_s=float(t0), position_km=tuple(float(v) for v in z[0:3]),
+                            velocity_km_s=tuple(float(v) for v in z[3:6]))
     t0, x0 = design_initial_state(cfg.sim.trajectory, cfg.sim.forces)
     f0 = cfg.fsw.bank.filters[0]
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x0A1B]))

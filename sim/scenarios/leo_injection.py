@@ -42,7 +42,7 @@ class LeoInjectionConfig:
     """Injection state, tracking, dispersions and a-priori of the leo-injection case."""
 
     epoch_utc: str = spec("2018-01-12T04:16:00", doc="injection epoch (UTC, ISO 8601)")
-    altitude_km: float = spec(505.0, doc="planned altitude of the (near-circular) injection orbit", unit="km", gt=100.0)
+    altitude_km: float = spec(505.0, doc="planned perigee altitude of the (near-circular) injection orbit above the equatorial radius", unit="km", gt=100.0)
     eccentricity: float = spec(0.001, doc="planned eccentricity", unit="1", ge=0.0, lt=0.5)
     inclination_deg: float = spec(97.5, doc="planned inclination (sun-synchronous at ~505 km)", unit="deg", gt=0.0, lt=180.0)
     perigee_deg: float = spec(90.0, doc="planned argument of perigee", unit="deg")
@@ -94,7 +94,7 @@ def planned_state(cfg: LeoInjectionConfig, t0: float, orientation: EarthOrientat
     u = math.pi - math.asin(s)  # descending: argument of latitude in (90°, 270°)
     raan = ra - math.atan2(math.cos(inc) * math.sin(u), math.cos(u))
     argp = math.radians(cfg.perigee_deg)
-    a = (R_EARTH_EQ_KM + cfg.altitude_km) / (1.0 - cfg.eccentricity)  # perigee altitude as planned... near-circular
+    a = (R_EARTH_EQ_KM + cfg.altitude_km) / (1.0 - cfg.eccentricity)
     return elements_to_state(a, cfg.eccentricity, inc, raan, argp, u - argp)
 
 

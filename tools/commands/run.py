@@ -222,7 +222,7 @@ def run(args) -> int:
         print(f"navbank run {run_id}: live view on ws://{args.live_host}:{port} (Foxglove: Open connection, "
               "Foxglove WebSocket)", file=sys.stderr)
     t0 = time.perf_counter()
-    bar = None if args.quiet else progress_bar(cfg.sim.trajectory.span_days, desc="run", unit="day")
+    bar = None if args.quiet else progress_bar(cfg.sim.span_days, desc="run", unit="day")
     echo = None if bar is None else _fsw_echo(bar)
     status: RunEnding = "complete"
     reason: str | None = None

@@ -84,7 +84,7 @@ def run(args) -> int:
         from sim.app import publish_run
 
         consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
-        span = cfg.sim.trajectory.span_days
+        span = cfg.sim.span_days
         bar = progress_bar(span, desc="sim", unit="day")
         try:
             with joined(args, args.run_id, "sim") as transport:
