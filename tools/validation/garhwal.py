@@ -254,20 +254,35 @@ def _fmt_ci(m: float, lo: float, hi: float, scale: float = 1.0, digits: int = 1)
     return f"{m * scale:.{digits}f} [{lo * scale:.{digits}f}, {hi * scale:.{digits}f}]"
 
 
-def claims(r: GarhwalResults) -> list[Claim]:
+def paired_difference(r: GarhwalResults, a: str, b: str) -> tuple[int, tuple[float, float, float], tuple[int, int, int]]:
+    """Convergence time of ``a`` minus ``b`` over the seeds where both converge: (seeds, mean and
+    bootstrap CI, (a faster, equal, slower) counts)."""
     conv = r.conv()
-    f, l = NAMES.index("fuzzy-adaptive"), NAMES.index("lsq-adaptive")
-    both = np.isfinite(conv[:, f]) & np.isfinite(conv[:, l])
-    diff = conv[both, f] - conv[both, l]
-    m, lo, hi = bootstrap_ci(diff)
-    faster = hi < 0.0
-    return [Claim(
+    i, j = NAMES.index(a), NAMES.index(b)
+    both = np.isfinite(conv[:, i]) & np.isfinite(conv[:, j])
+    d = conv[both, i] - conv[both, j]
+    return int(both.sum()), bootstrap_ci(d), (int((d < 0).sum()), int((d == 0).sum()), int((d > 0).sum()))
+
+
+def claims(r: GarhwalResults) -> list[Claim]:
+    n, (m, lo, hi), (fast, eq, slow) = paired_difference(r, "fuzzy-adaptive", "lsq-adaptive")
+    out = [Claim(
         "garhwal-fuzzy-faster",
         "the fuzzy-slope adaptive EKF converges faster than the least-squares-slope one (Figs. 3–6)",
-        faster,
-        f"convergence time fuzzy − least squares over {both.sum()} seeds where both converge: mean {m:+.1f} s, "
-        f"95 % bootstrap CI [{lo:+.1f}, {hi:+.1f}] s; fuzzy strictly faster in {int((diff < 0).sum())}, "
-        f"equal in {int((diff == 0).sum())}, slower in {int((diff > 0).sum())}")]
+        hi < 0.0,
+        f"convergence time fuzzy − least squares over {n} seeds where both converge: mean {m:+.1f} s, "
+        f"95 % bootstrap CI [{lo:+.1f}, {hi:+.1f}] s; fuzzy faster in {fast}, equal in {eq}, slower in {slow}")]
+    worst = -math.inf
+    parts = []
+    for name in ("lsq-adaptive", "fuzzy-adaptive"):
+        n, (m, lo, hi), _ = paired_difference(r, name, "ekf")
+        worst = max(worst, hi)
+        parts.append(f"{name} − ekf {m:+.1f} s [{lo:+.1f}, {hi:+.1f}]")
+    out.append(Claim(
+        "garhwal-adaptive-faster-than-plain",
+        "state-noise adaptation (either slope) converges faster than the plain EKF (the paper's premise)",
+        worst < 0.0, "convergence time, mean and 95 % bootstrap CI over seeds: " + "; ".join(parts)))
+    return out
 
 
 def garhwal_section(r: GarhwalResults, figures: list[Path], doc_dir: Path) -> Section:
@@ -320,8 +335,34 @@ def garhwal_section(r: GarhwalResults, figures: list[Path], doc_dir: Path) -> Se
         + "; over the last quarter " + ", ".join(f"{nm} {w:.3f}" for nm, w in zip(NAMES, late)) + ".",
         "",
     ]
+    pair_rows = []
+    for a, b in (("fuzzy-adaptive", "lsq-adaptive"), ("lsq-adaptive", "ekf"), ("fuzzy-adaptive", "ekf")):
+        k, (m, lo, hi), (fast, eq, slow) = paired_difference(r, a, b)
+        pair_rows.append([f"{a} − {b}", str(k), _fmt_ci(m, lo, hi), f"{fast} / {eq} / {slow}"])
+    s.lines += ["Paired differences of the time to converge (same seeds, same measurements):", ""]
+    s.lines += table(["difference", "seeds", "mean [s], 95 % bootstrap CI", "first faster / equal / slower"],
+                     pair_rows) + [""]
     s.claims = claims(r)
     s.lines += claims_lines(s.claims) + [""] + figure_links(figures, doc_dir)
+    f_l = pair_rows[0][2]
+    nees_mean = [mean_ci(nees[:, f])[0] for f in range(len(NAMES))]
+    pref = NAMES[int(np.argmax(W[:, W.shape[1] // 4: 3 * W.shape[1] // 4].mean(axis=(0, 1))))] if W.shape[1] >= 4 \
+        else NAMES[int(np.argmax(late))]
+    s.discussion = (
+        "**Discussion.** On this case the fuzzy slope does "
+        + ("" if s.claims[0].holds else "not ")
+        + f"converge faster than the least-squares slope (fuzzy − least squares {f_l} s). Both adaptive filters "
+        "converge later than the plain EKF and end with larger errors: eq. 1 adds process noise from the state "
+        "corrections themselves, which are large while the poor a-priori is being corrected, so it keeps the "
+        "covariance open after the measurements have pinned the state down (mean NEES over the second half "
+        + ", ".join(f"{n} {v:.2f}" for n, v in zip(NAMES, nees_mean))
+        + " against 6 for a consistent filter: the adaptive filters are over-conservative). The paper's PSLV-C1 "
+        "filter may have had more model error for the adaptation to absorb; here the filters' two-body + J2 model "
+        "misses only J3, J4 and drag, metres over the arc. The chi-square network, which scores each filter's "
+        "normalised innovations, gives the over-conservative adaptive filters slightly more weight than the plain "
+        f"EKF (mid-arc it prefers {pref}); the plain EKF's smaller but honest covariance costs it chi-square — "
+        "the over-inflated-uncertainty weakness Lubey & Ely 2022 name, seen on a new case."
+    )
     return s
 
 
