@@ -254,3 +254,14 @@ def test_navbank_run_flies_the_leo_injection_scenario(tmp_path) -> None:
     assert status.counts["processed"] == len(meas) and status.counts["adaptive_lp_solves"] > 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["scenario"] == "leo-injection"
+
+
+def test_tracking_kinds_are_registered_for_the_earth_orbit_bank_only() -> None:
+    from fsw.filters import kinds as registry
+
+    assert registry.ORBIT_KINDS == topocentric.COMPONENTS
+    assert not set(registry.ORBIT_KINDS) & set(registry.FILTER_KINDS)
+    for name, model in registry.ORBIT_REGISTRY.items():
+        assert model.declaration is kinds.declaration(name)
+        assert topocentric.COMPONENTS[model.component] == name
+    assert [n for n, m in registry.ORBIT_REGISTRY.items() if m.wrap] == ["azimuth"]

@@ -29,6 +29,7 @@ from fsw.filters.adaptive_q import AdaptiveQ, AdaptiveQConfig, AdaptiveQCounters
 from fsw.filters.config import BankConfig
 from fsw.filters.combine import best_index, normalised_weights, weighted_estimate
 from fsw.filters.errors import MeasurementRejected, UnknownFilter
+from fsw.filters import kinds
 from fsw.filters.estimate import FilterEstimate
 from fsw.filters.record import BankRecord
 from fsw.interface.messages import Measurement
@@ -43,8 +44,8 @@ class OrbitFilterConfig:
 
 
 STATE_NAMES: tuple[str, ...] = ("x", "y", "z", "vx", "vy", "vz")
-#: The kinds the bank processes (every filter processes all of them).
-KINDS: tuple[str, ...] = topocentric.COMPONENTS
+#: The kinds the bank processes (every filter processes all of them): its registry's.
+KINDS: tuple[str, ...] = kinds.ORBIT_KINDS
 
 
 class OrbitBank:
@@ -195,7 +196,7 @@ class OrbitBank:
                                              np.repeat(enu, N, 0))
                 frames[m.source] = (hs, Hs)
             hs, Hs = frames[m.source]
-            c = topocentric.COMPONENTS.index(m.kind)
+            c = kinds.ORBIT_REGISTRY[m.kind].component
             h[:, k] = hs[:, c]
             H[:, k] = Hs[:, c]
         return h, H
@@ -208,9 +209,9 @@ class OrbitBank:
         self._epoch_prior = self.x.copy()
         y = np.array([m.value[0] for m in meas])
         res, S, chi2 = self._update(meas, y, self.active.copy())
-        kinds = tuple(m.kind for m in meas)
+        names = tuple(m.kind for m in meas)
         self._close_epoch()
-        rec = BankRecord(t=self.t, seq=self.seq, kind="+".join(dict.fromkeys(kinds)), filters=self.names,
+        rec = BankRecord(t=self.t, seq=self.seq, kind="+".join(dict.fromkeys(names)), filters=self.names,
                          residual=res, S=S, chi2=chi2, processed=self.active.copy(), active=self.active.copy())
         self.seq += 1
         return rec
@@ -219,7 +220,10 @@ class OrbitBank:
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Joseph-form update of the filters where ``does``; (pre-fit residual, S, chi-square)."""
         h, H = self.predict(meas)
-        res = topocentric.wrap_residual(y[None, :] - h, tuple(m.kind for m in meas))
+        res = y[None, :] - h
+        for k, m in enumerate(meas):
+            if kinds.ORBIT_REGISTRY[m.kind].wrap:
+                res[:, k] = (res[:, k] + math.pi) % (2.0 * math.pi) - math.pi
         R = np.diag([m.sigma[0] ** 2 for m in meas])
         Ht = np.swapaxes(H, -1, -2)
         S = H @ self.P @ Ht + R
