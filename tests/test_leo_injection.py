@@ -19,6 +19,9 @@ from sim.dynamics import earth_orbit
 from sim.dynamics.earth_orbit import EarthForceConfig
 
 
+APRIORI_SIGMA = np.array([10.0] * 3 + [0.02] * 3)
+
+
 def _geometry(seed: int) -> tuple[np.ndarray, ...]:
     rng = np.random.default_rng(seed)
     r_s = rng.normal(0.0, 1.0, 3)
@@ -175,7 +178,7 @@ def test_scenario_measurements_and_bank_converge() -> None:
     assert [m.seq for m in run.measurements] == list(range(len(run.measurements)))
     assert generate(cfg, 5).measurements == run.measurements  # one seed, one realisation
     bank = OrbitBank([OrbitFilterConfig("ekf"), OrbitFilterConfig("lsq", AdaptiveQConfig(mode="lsq-adaptive"))],
-                     run.t[0], run.apriori, run.apriori_sigma)
+                     run.t[0], run.apriori, APRIORI_SIGMA)
     err0 = np.linalg.norm(run.apriori[0:3] - run.truth[0, 0:3])
     k_of = {float(t): k for k, t in enumerate(run.t)}
     for tt, grp in itertools.groupby(run.measurements, key=lambda m: m.t_s):
@@ -198,8 +201,8 @@ def test_sequential_updates_match_the_joint_update_and_feed_one_residual_per_epo
 
     run = generate(LeoInjectionConfig(arc_s=30.0), 2)
     fl = [OrbitFilterConfig("ekf"), OrbitFilterConfig("lsq", AdaptiveQConfig(mode="lsq-adaptive", window=5, warmup=5))]
-    joint = OrbitBank(fl, run.t[0], run.apriori, run.apriori_sigma)
-    seq = OrbitBank(fl, run.t[0], run.apriori, run.apriori_sigma)
+    joint = OrbitBank(fl, run.t[0], run.apriori, APRIORI_SIGMA)
+    seq = OrbitBank(fl, run.t[0], run.apriori, APRIORI_SIGMA)
     epochs = 0
     for _, grp in itertools.groupby(run.measurements, key=lambda m: m.t_s):
         g = list(grp)

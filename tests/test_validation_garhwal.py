@@ -9,12 +9,11 @@ import numpy as np
 import pytest
 
 from tools.validation import garhwal
-from sim.scenarios.leo_injection import LeoInjectionConfig
 
 
 @pytest.fixture(scope="module")
 def results() -> garhwal.GarhwalResults:
-    return garhwal.run_garhwal(12, LeoInjectionConfig(arc_s=200.0), first_seed=101)
+    return garhwal.run_garhwal(12, garhwal.scenario(arc_s=200.0), first_seed=101)
 
 
 def test_elements_of_a_circular_polar_state() -> None:

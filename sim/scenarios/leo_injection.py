@@ -10,8 +10,8 @@ ISRO's mission brochure); the injection is placed on a southbound (descending) p
 noise nor its dispersions; the figures below are navbank's own, stated here and in the
 scenario's YAML: S-band tracking σ = 10 m, 5 cm/s, 0.02°, 0.02°; injection dispersion 2 km per
 position axis and 5 m/s per velocity axis about the planned state; the a-priori handed to the
-filters is the planned state with σ = 10 km and 20 m/s per axis (a poor a-priori, as in the
-paper).
+filters is the planned state (its σ, 10 km and 20 m/s per axis in the built-in scenario, is the
+FSW's configuration: a poor a-priori, as in the paper).
 
 Truth: :mod:`sim.dynamics.earth_orbit` (J2–J4, drag) with the truth Earth orientation and
 stations (:mod:`sim.truth.tracking_stations`); the filters' own model is two-body + J2, no drag.
@@ -58,8 +58,6 @@ class LeoInjectionConfig:
     sigma_elevation_deg: float = spec(0.02, doc="elevation noise", unit="deg", gt=0.0)
     dispersion_pos_km: float = spec(2.0, doc="injection dispersion per position axis (1 sigma)", unit="km", ge=0.0)
     dispersion_vel_km_s: float = spec(0.005, doc="injection dispersion per velocity axis (1 sigma)", unit="km/s", ge=0.0)
-    apriori_pos_km: float = spec(10.0, doc="a-priori sigma per position axis given to the filters", unit="km", gt=0.0)
-    apriori_vel_km_s: float = spec(0.02, doc="a-priori sigma per velocity axis given to the filters", unit="km/s", gt=0.0)
     forces: EarthForceConfig = spec(EarthForceConfig(), doc="truth forces")
 
     @property
@@ -105,8 +103,7 @@ class LeoRun:
     t: np.ndarray  # (K,) TDB epochs of the arc
     truth: np.ndarray  # (K, 6) GCRS states
     measurements: list[Measurement]
-    apriori: np.ndarray  # (6,) planned state handed to the filters
-    apriori_sigma: np.ndarray  # (6,)
+    apriori: np.ndarray  # (6,) planned state handed to the filters (their sigmas are FSW configuration)
     visible: dict[str, np.ndarray] = field(default_factory=dict)  # station -> (K,) bool
 
 
@@ -145,5 +142,4 @@ def generate(cfg: LeoInjectionConfig, seed: int) -> LeoRun:
     meas = [Measurement(seq=q, t_s=tk, timestamp=Stamp.from_unix(float(unix[k_of[tk]])), kind=KIND_ORDER[c],
                         source=name, value=(v,), sigma=(sig[c],))
             for q, (tk, _, name, c, v) in enumerate(rows)]
-    apriori_sigma = np.array([cfg.apriori_pos_km] * 3 + [cfg.apriori_vel_km_s] * 3)
-    return LeoRun(t=t, truth=truth, measurements=meas, apriori=planned, apriori_sigma=apriori_sigma, visible=visible)
+    return LeoRun(t=t, truth=truth, measurements=meas, apriori=planned, visible=visible)

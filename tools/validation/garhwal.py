@@ -1,8 +1,12 @@
 """Garhwal, Halder & Sinha on navbank's launch-injection case: the plain EKF against the
 state-residual adaptive EKF with the least-squares slope and with the fuzzy (Tanaka FLR) slope,
-flown on the same measurement sets over many seeds (:mod:`sim.scenarios.leo_injection`,
-:class:`fsw.filters.orbit_bank.OrbitBank`), and the three as a bank under the chi-square gating
-network (Lubey & Ely 2022).
+flown on the same measurement sets over many seeds, and the three as a bank under the
+chi-square gating network (Lubey & Ely 2022). Each seed is the built-in ``leo-injection``
+scenario flown by the flight software's own core through the in-process runner
+(:func:`tools.inprocess.run_in_process`): the same bank (:class:`fsw.filters.orbit_bank.OrbitBank`),
+gating networks and telemetry as ``navbank run --scenario leo-injection``; the series below are
+read from its ICD telemetry (estimates with full covariance every second, residuals, weights)
+against its Truth messages.
 
 Per seed and filter: position/velocity error, NEES, the orbital elements (a, e, i, Ω, ω, θ) against
 the truth's (the paper's Figs. 3–8), the pre-fit observation residuals (Figs. 9–12), the time to
@@ -14,7 +18,6 @@ differences of convergence time by a bootstrap over seeds.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,23 +26,19 @@ import numpy as np
 from scipy import stats
 
 from fsw.astro.constants import GM_EARTH
-from fsw.filters.adaptive_q import AdaptiveQConfig
-from fsw.filters.orbit_bank import OrbitBank, OrbitFilterConfig
-from fsw.gating import make_network
-from sim.scenarios.leo_injection import KIND_ORDER, LeoInjectionConfig, generate
+from fsw.interface import typed
+from sim.scenarios.leo_injection import KIND_ORDER
+from tools.campaign.plan import merge
+from tools.inprocess import run_in_process
+from tools.scenario import ScenarioConfig, load_scenario
 from tools.validation.claims import Claim
 from tools.validation.section import Section, claims_lines, figure_links, table
 
-FILTERS: tuple[OrbitFilterConfig, ...] = (
-    OrbitFilterConfig("ekf"),
-    OrbitFilterConfig("lsq-adaptive", AdaptiveQConfig(mode="lsq-adaptive", window=10, warmup=10)),
-    OrbitFilterConfig("fuzzy-adaptive", AdaptiveQConfig(mode="fuzzy-adaptive", window=10, warmup=10, h=0.0)),
-)
-NAMES = tuple(f.name for f in FILTERS)
+SCENARIO = "leo-injection"
+NAMES = ("ekf", "lsq-adaptive", "fuzzy-adaptive")
 ELEMENTS = ("a [km]", "e", "i [deg]", "Ω [deg]", "ω [deg]", "θ [deg]")
 TOL_POS_KM = 0.1
 TOL_VEL_KM_S = 5e-4
-GATE_BATCH = 10  # epochs per chi-square weight update (10 s at 1 Hz)
 SEEDS = 50
 
 
@@ -71,47 +70,67 @@ class SeedResult:
     truth_elements: np.ndarray  # (K, 6)
     residuals: np.ndarray  # (F, K, 4) pre-fit, first station, KIND_ORDER (NaN where not measured)
     weights: np.ndarray  # (B, F) chi-square network weights per batch
+    weights_t: np.ndarray  # (B,) seconds since injection of each batch's last measurement
     lp_solves: int = 0
     lp_failures: int = 0
     lp_us: float = 0.0
 
 
-def run_seed(cfg: LeoInjectionConfig, seed: int) -> SeedResult:
-    run = generate(cfg, seed)
-    bank = OrbitBank(FILTERS, float(run.t[0]), run.apriori, run.apriori_sigma)
-    net = make_network("chi2", NAMES, {"batch_size": GATE_BATCH})
-    k_of = {float(t): k for k, t in enumerate(run.t)}
-    ts, pe, ve, ne, el, tel, res, w = [], [], [], [], [], [], [], []
-    first = cfg.stations[0]
-    for tt, grp in itertools.groupby(run.measurements, key=lambda m: m.t_s):
-        meas = list(grp)
-        rec = bank.process_epoch(meas)
-        up = net.update(rec)
-        if up is not None:
-            w.append(up.weights.copy())
-        k = k_of[float(tt)]
-        err = bank.x - run.truth[k]
-        ts.append(float(tt - run.t[0]))
-        pe.append(np.linalg.norm(err[:, 0:3], axis=1))
-        ve.append(np.linalg.norm(err[:, 3:6], axis=1))
-        ne.append(np.einsum("ni,nij,nj->n", err, np.linalg.inv(bank.P), err))
-        el.append(elements(bank.x))
-        tel.append(elements(run.truth[k]))
-        r = np.full((len(FILTERS), 4), np.nan)
-        for j, m in enumerate(meas):
-            if m.source == first:
-                r[:, KIND_ORDER.index(m.kind)] = rec.residual[:, j]
-        res.append(r)
-    up = net.flush()
-    if up is not None:
-        w.append(up.weights.copy())
-    aq = [a for a in bank.adaptive if a is not None and a.config.mode == "fuzzy-adaptive"]
-    return SeedResult(
-        t=np.array(ts), pos_err=np.array(pe).T, vel_err=np.array(ve).T, nees=np.array(ne).T,
-        elements=np.swapaxes(np.array(el), 0, 1), truth_elements=np.array(tel),
-        residuals=np.swapaxes(np.array(res), 0, 1), weights=np.array(w),
-        lp_solves=sum(a.counters.lp_solves for a in aq), lp_failures=sum(a.counters.lp_failures for a in aq),
-        lp_us=sum(1e6 * a.counters.lp_seconds for a in aq))
+def scenario(arc_s: float | None = None) -> ScenarioConfig:
+    """The built-in leo-injection scenario with every filter's full covariance in its estimates
+    (for NEES) and optionally a shorter arc."""
+    data = typed.encode(load_scenario(SCENARIO))
+    merge(data, {"fsw.telemetry.full_covariance": True})
+    if arc_s is not None:
+        merge(data, {"sim.leo.arc_s": float(arc_s)})
+    cfg = typed.decode(ScenarioConfig, data)
+    if tuple(f.name for f in cfg.fsw.bank.filters) != NAMES:
+        raise ValueError(f"the {SCENARIO} scenario's filters are not {NAMES}")
+    return cfg
+
+
+def run_seed(cfg: ScenarioConfig, seed: int) -> SeedResult:
+    """Fly one seed in process and read its telemetry back into time series."""
+    res = run_in_process(cfg, seed)
+    truth = res.topic("sim/truth")
+    t0 = truth[0].t_s
+    z_true = np.array([[*m.position_km, *m.velocity_km_s] for m in truth])
+    k_of = {round(m.t_s - t0): k for k, m in enumerate(truth)}
+    ests = {n: {round(e.t_s - t0): e for e in res.topic("fsw/estimate/" + n)} for n in NAMES}
+    # epochs with a truth and an estimate from every filter, after the first measurement
+    first = min(m.t_s for m in res.topic("fsw/residuals")[0].samples) - t0 if res.topic("fsw/residuals") else 0.0
+    ks = sorted(k for k in k_of if k >= first and all(k in ests[n] for n in NAMES))
+    F, K = len(NAMES), len(ks)
+    pe, ve, ne = np.empty((F, K)), np.empty((F, K)), np.empty((F, K))
+    el = np.empty((F, K, 6))
+    for f, n in enumerate(NAMES):
+        for j, k in enumerate(ks):
+            e = ests[n][k]
+            x = np.array(e.state)
+            err = x - z_true[k_of[k]]
+            pe[f, j] = np.linalg.norm(err[0:3])
+            ve[f, j] = np.linalg.norm(err[3:6])
+            P = np.array(e.covariance)
+            ne[f, j] = float(err @ np.linalg.solve(P, err))
+            el[f, j] = elements(x)
+    tel = elements(z_true[[k_of[k] for k in ks]])
+    resid = np.full((F, K, 4), np.nan)
+    col = {k: j for j, k in enumerate(ks)}
+    station = cfg.sim.leo.stations[0] if cfg.sim.leo is not None else ""
+    for msg in res.topic("fsw/residuals"):
+        for smp in msg.samples:
+            c = col.get(round(smp.t_s - t0))
+            if c is not None and smp.source == station:
+                resid[:, c, KIND_ORDER.index(smp.kind)] = [r[0] for r in smp.residual]
+    wmsgs = res.topic("fsw/weights/chi2")
+    weights = np.array([w.weights for w in wmsgs])
+    weights_t = np.array([w.t_s - t0 for w in wmsgs])
+    counts = res.topic("fsw/status")[-1].counts
+    return SeedResult(t=np.array(ks, dtype=float), pos_err=pe, vel_err=ve, nees=ne, elements=el,
+                      truth_elements=tel, residuals=resid, weights=weights, weights_t=weights_t,
+                      lp_solves=int(counts.get("adaptive_lp_solves", 0)),
+                      lp_failures=int(counts.get("adaptive_lp_failures", 0)),
+                      lp_us=float(counts.get("adaptive_lp_us", 0)))
 
 
 def convergence_time(t: np.ndarray, pos_err: np.ndarray, vel_err: np.ndarray) -> float:
@@ -144,7 +163,7 @@ def bootstrap_ci(x: np.ndarray, level: float = 0.95, n: int = 4000, seed: int = 
 
 @dataclass
 class GarhwalResults:
-    config: LeoInjectionConfig
+    config: ScenarioConfig
     seeds: list[int]
     runs: list[SeedResult] = field(default_factory=list)
 
@@ -172,8 +191,8 @@ class GarhwalResults:
         return np.array([r.weights[:b] for r in self.runs])
 
 
-def run_garhwal(seeds: int = SEEDS, config: LeoInjectionConfig | None = None, first_seed: int = 1) -> GarhwalResults:
-    cfg = config or LeoInjectionConfig()
+def run_garhwal(seeds: int = SEEDS, config: ScenarioConfig | None = None, first_seed: int = 1) -> GarhwalResults:
+    cfg = config or scenario()
     out = GarhwalResults(cfg, list(range(first_seed, first_seed + seeds)))
     for s in out.seeds:
         out.runs.append(run_seed(cfg, s))
@@ -240,7 +259,7 @@ def plot_errors_and_weights(r: GarhwalResults, path: Path) -> Path:
     axes[1].axhline(6.0, color="k", lw=0.6, ls="--")
     axes[1].set_title("mean NEES (6 if consistent)", fontsize=9)
     W = r.weights()
-    tb = GATE_BATCH * (np.arange(W.shape[1]) + 1)
+    tb = r.runs[0].weights_t[: W.shape[1]]
     for f, name in enumerate(NAMES):
         axes[2].plot(tb, W[:, :, f].mean(axis=0), label=name)
     axes[2].set_title("chi-square network: mean weight", fontsize=9)
@@ -286,7 +305,10 @@ def claims(r: GarhwalResults) -> list[Claim]:
 
 
 def garhwal_section(r: GarhwalResults, figures: list[Path], doc_dir: Path) -> Section:
-    cfg = r.config
+    cfg = r.config.sim.leo
+    assert cfg is not None
+    f0 = r.config.fsw.bank.filters[0]
+    chi2 = next(g for g in r.config.fsw.gating if g.network == "chi2")
     s = Section("Garhwal et al.: fuzzy against least-squares state-noise adaptation, launch-injection case")
     conv = r.conv()
     pos, vel = r.late_rms()
@@ -300,10 +322,13 @@ def garhwal_section(r: GarhwalResults, figures: list[Path], doc_dir: Path) -> Se
         f"(σ = {cfg.sigma_range_km * 1e3:g} m, {cfg.sigma_range_rate_km_s * 1e5:g} cm/s, "
         f"{cfg.sigma_azimuth_deg:g}°, {cfg.sigma_elevation_deg:g}°) above a {cfg.elevation_mask_deg:g}° mask over a "
         f"{cfg.arc_s:g} s arc; injection dispersion {cfg.dispersion_pos_km:g} km / {cfg.dispersion_vel_km_s * 1e3:g} m/s "
-        f"per axis, a-priori σ {cfg.apriori_pos_km:g} km / {cfg.apriori_vel_km_s * 1e3:g} m/s (a poor a-priori). Truth: "
-        "J2–J4 and drag; the filters: two-body + J2, no drag (`fsw.filters.orbit_bank`). Three EKFs fly the same "
-        "measurements: `ekf` (no process noise), `lsq-adaptive` and `fuzzy-adaptive` (eq. 1 with λ = 10, the "
-        "first 10 updates without adaptation, h = 0, no big-M bound). "
+        f"per axis, a-priori σ {f0.position_sigma_km:g} km / {f0.velocity_sigma_km_s * 1e3:g} m/s about the planned state "
+        "(a poor a-priori). Truth: "
+        "J2–J4 and drag; the filters: two-body + J2, no drag (`fsw.filters.orbit_bank`, sequential updates). Three "
+        "EKFs fly the same measurements: `ekf` (no process noise), `lsq-adaptive` and `fuzzy-adaptive` (eq. 1 with "
+        "λ = 10, the first 10 epochs without adaptation, h = 0, no big-M bound). Each seed is the built-in "
+        "`leo-injection` scenario flown by the flight software's core in process (`tools.inprocess`), read back "
+        "from its telemetry. "
         f"{n} seeds. Convergence: the first epoch after which the position error stays below "
         f"{TOL_POS_KM * 1e3:g} m and the velocity error below {TOL_VEL_KM_S * 1e3:g} m/s to the end of the arc. "
         "Intervals: 95 % (t-interval of the mean over seeds; paired differences by bootstrap).",
@@ -330,7 +355,8 @@ def garhwal_section(r: GarhwalResults, figures: list[Path], doc_dir: Path) -> Se
         f"FLR linear programs: {lp} solved, {lp_fail} failed (fell back to the least-squares slope), "
         f"{lp_us:.0f} µs each on the host.",
         "",
-        f"The three as a bank under the chi-square gating network (batch {GATE_BATCH} epochs, σ_W 0.05): mean weight "
+        f"The three as a bank under the chi-square gating network (batch {chi2.params.batch_size} measurements, "
+        f"σ_W {chi2.params.sigma_w:g}): mean weight "
         "over the first quarter of the arc " + ", ".join(f"{nm} {w:.3f}" for nm, w in zip(NAMES, early))
         + "; over the last quarter " + ", ".join(f"{nm} {w:.3f}" for nm, w in zip(NAMES, late)) + ".",
         "",
