@@ -123,8 +123,8 @@ class InitialState:
     """A-priori spacecraft state uplinked to the FSW before the run (never the truth)."""
 
     t_s: float = spec(doc="epoch, TDB seconds past J2000", unit="s")
-    position_km: tuple[float, ...] = spec(doc="Mars-centred ICRF position", unit="km", shape=(3,))
-    velocity_km_s: tuple[float, ...] = spec(doc="Mars-centred ICRF velocity", unit="km/s", shape=(3,))
+    position_km: tuple[float, ...] = spec(doc="ICRF position from the central body (Mars; the Earth in Earth-orbit scenarios)", unit="km", shape=(3,))
+    velocity_km_s: tuple[float, ...] = spec(doc="ICRF velocity relative to the central body (Mars; the Earth in Earth-orbit scenarios)", unit="km/s", shape=(3,))
 
 
 @dataclass(frozen=True)
