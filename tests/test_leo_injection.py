@@ -268,3 +268,27 @@ def test_tracking_kinds_are_registered_for_the_earth_orbit_bank_only() -> None:
         assert model.declaration is kinds.declaration(name)
         assert topocentric.COMPONENTS[model.component] == name
     assert [n for n, m in registry.ORBIT_REGISTRY.items() if m.wrap] == ["azimuth"]
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("central_body: earth", "central_body: mars"), "go together"),
+    (("central_body: earth", "central_body: earth\n  rqp: {enabled: true}"), "RQP"),
+    (("sim:\n", "sim:\n  faults: [{type: optical-bias, onset_day: 0.001, sample_px: 1.0, line_px: 1.0}]\n"), "faults"),
+])
+def test_inconsistent_earth_orbit_scenarios_are_one_line_errors(edit: tuple[str, str], message: str) -> None:
+    from fsw.interface.yamlconfig import ConfigError
+    from tools.scenario import load_text_scenario
+
+    text = (Path(__file__).parents[1] / "tools/scenarios/leo-injection.yaml").read_text()
+    assert load_text_scenario(text).sim.leo is not None
+    with pytest.raises(ConfigError, match=message) as err:
+        load_text_scenario(text.replace(*edit, 1))
+    assert "\n" not in str(err.value)
+
+
+def test_a_fault_preset_is_refused_for_the_earth_orbit_case() -> None:
+    from fsw.interface.yamlconfig import ConfigError
+    from tools.scenario import load_scenario, with_fault
+
+    with pytest.raises(ConfigError, match="--fault"):
+        with_fault(load_scenario("leo-injection"), "optical-bias-medium")

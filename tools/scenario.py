@@ -33,6 +33,11 @@ class ScenarioConfig:
     sim: SimConfig = spec(default_factory=SimConfig, doc="truth and sensor simulator")
     fsw: FswConfig = spec(default_factory=FswConfig, doc="flight software")
 
+    def __post_init__(self) -> None:
+        earth = self.sim.leo is not None
+        if earth != (self.fsw.central_body == "earth"):
+            raise ValueError("sim.leo (an Earth orbiter) and fsw.central_body: earth go together")
+
 
 def builtin_names() -> list[str]:
     """Names of the built-in scenarios."""
@@ -61,6 +66,8 @@ def with_fault(cfg: ScenarioConfig, fault: str | None, onset_day: float | None =
         return cfg
     if fault not in FAULT_PRESETS:
         raise ConfigError("--fault", None, "", "one of " + ", ".join(FAULT_PRESETS), repr(fault) + did_you_mean(fault, FAULT_PRESETS))
+    if cfg.sim.leo is not None:
+        raise ConfigError("--fault", None, "", "no fault: the Earth-orbit (leo) case has none", repr(fault))
     faults = preset(fault, onset_day=onset_day)
     return dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, faults=tuple(faults)))
 
