@@ -308,8 +308,8 @@ they have two causes, one in the estimation and one in the case:
   declares falsely in 6/6, 6/6 and 4/6 runs at a multiplier of 0.2; the multiplier below which neither bank
   identifies (about 0.05) does not move with N.
 * *The case: below a multiplier of about 0.05 the failure is not identifiable by any statistic.* The excess of ψ
-  at the dither frequency grows with the square of the dither: here about 90 (two-axis) and 50–200 (spacecraft)
-  at full dither, so about 0.01–0.02 at a multiplier of 0.01, against a statistic of unit mean and unit standard
+  at the dither frequency grows with the square of the dither: here about 40–100 (two-axis) and 35–210 (spacecraft)
+  at full dither, so 0.003–0.02 at a multiplier of 0.01, against a statistic of unit mean and unit standard
   deviation; over the 1000 samples after the failure even a coherent matched filter collects less than one
   standard deviation of evidence. The identifications the per-sample bank reports there (and the earlier
   section's "5/6 at 0.01") come with a wrong declaration in every run: the hypotheses take turns above 0.5 and
