@@ -179,3 +179,14 @@ def test_update_every_and_density_are_validated():
         make_network("residual-correlation", NAMES, {"update_every": 0})
     with pytest.raises(InvalidParameterError, match="density"):
         make_network("residual-correlation", NAMES, {"density": "cauchy"})
+
+
+def test_changing_update_every_keeps_the_window():
+    rng = np.random.default_rng(13)
+    net = make_network("residual-correlation", NAMES, {"window": 20, "frequencies": (0.1,)})
+    feed_all(net, rng.standard_normal((25, 2, 1)))
+    before = net.statistic()
+    net.set_param("update_every", 5)
+    np.testing.assert_allclose(net.statistic(), before)  # no refill of the window
+    ups = feed_all(net, rng.standard_normal((10, 2, 1)))
+    assert len(ups) == 2  # records 25..34: those 5 and 10 samples after the last update

@@ -34,6 +34,8 @@ Two choices decide how often the hypothesis test is fooled in nominal operation:
   no-failure case. ``"exponential"`` uses that exact density, ln f = −Σ_d ψ_d/ψ̄_d − ln ψ̄_d (ψ̄ = 1,
   or the learned mean), whose penalty grows linearly rather than quadratically with the excess
   power, so the exponential tail of a correct filter's ψ is not mistaken for a failure signature.
+  It is exact for consecutive samples (``time_base = "sample"``) at frequencies that are multiples
+  of 1/N, close to it elsewhere away from 0 and Nyquist, and an approximation for irregular time tags.
   The statistic reported is then q = 2 Σ_d ψ_d/ψ̄_d (χ²_{2d} under the hypothesis).
 
 Conditional mean and covariance (``calibration``):
@@ -127,7 +129,7 @@ class ResidualCorrelationNetwork(GatingNetwork):
             raise InvalidParameterError("residual-correlation needs at least one frequency")
 
     def _params_changed(self, old: ResidualCorrelationParams, new: ResidualCorrelationParams) -> None:
-        structural = ("window", "frequencies", "time_base", "kind", "calibration", "calibration_count", "update_every")
+        structural = ("window", "frequencies", "time_base", "kind", "calibration", "calibration_count")
         if any(getattr(old, f) != getattr(new, f) for f in structural):
             self._clear_window()
             self._clear_calibration()
