@@ -2,8 +2,8 @@
 
 Geodetic coordinates (WGS84) as uploaded to the onboard software. ISRO's telemetry, tracking and
 command network (ISTRAC) tracks PSLV injections from, among others, its Mauritius station; the
-coordinates below are the publicly listed location of that station rounded to 0.01°, the
-height a nominal 0.1 km: an approximation of the real antenna, used the same way by the truth
+coordinates below are an approximate (town-level, ~0.1°) location of that station at Bigara,
+the height a nominal 0.1 km: not a surveyed antenna position, used the same way by the truth
 (:mod:`sim.truth.tracking_stations`, written apart).
 """
 

@@ -2,9 +2,10 @@
 tracking of an Earth orbiter in its first minutes after injection.
 
 The paper flies PSLV-C1 data (not public). navbank's stand-in is modelled on a public PSLV
-sun-synchronous injection, PSLV-C40 (12 January 2018, Cartosat-2F: liftoff 03:59 UTC from
-Sriharikota, injection ~17 min later into a ~505 km sun-synchronous polar orbit, i ≈ 97.5°, per
-ISRO's mission brochure); the injection is placed on a southbound (descending) pass at 15° S,
+sun-synchronous injection, PSLV-C40 (12 January 2018, Cartosat-2 series: liftoff 09:29 IST from
+Sriharikota; ISRO's post-launch statement gives a flight of 16 min 37 s to a polar sun-synchronous
+orbit of 503 km inclined at 97.55°, against the 505 km announced before launch). navbank flies a
+505 km, i = 97.5° circular injection, within those figures' rounding; the injection is placed on a southbound (descending) pass at 15° S,
 59° E, a few hundred kilometres north-east of ISTRAC's Mauritius station, which tracks it at
 1 Hz in range, range rate, azimuth and elevation above a 5° mask. The paper states neither its
 noise nor its dispersions; the figures below are navbank's own, stated here and in the

@@ -1,7 +1,9 @@
 """Truth positions of the ground stations that track an Earth orbiter after injection.
 
-The publicly listed location of ISTRAC's Mauritius station (and of Sriharikota), rounded to
-0.01°, WGS84 geodetic, turned into ITRS coordinates with ERFA's ``gd2gc``; the GCRS state and
+The approximate locations of ISRO's telemetry, tracking and command station at Bigara,
+Mauritius (in service since the 1986 India–Mauritius agreement) and of Sriharikota — town-level
+positions to ~0.1°, not surveyed antenna coordinates, which is all a simulated station needs —,
+WGS84 geodetic, turned into ITRS coordinates with ERFA's ``gd2gc``; the GCRS state and
 the topocentric east/north/up axes come from the truth Earth orientation
 (:class:`sim.truth.earth.EarthOrientation`: IAU 2006/2000A with the IERS C04 EOP).
 """
