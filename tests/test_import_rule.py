@@ -37,7 +37,7 @@ class Layer:
 
 
 LAYERS = (
-    Layer("fsw/interface", ("fsw.interface",), ("numpy", "yaml")),
+    Layer("fsw/interface", ("fsw.interface",), ("numpy", "yaml", "msgspec")),
     Layer("fsw/transport", ("fsw.transport", "fsw.interface"), ("numpy", "zenoh")),
     Layer("fsw/astro", ("fsw.astro", "fsw.interface"), ANY),
     Layer("fsw", ("fsw",), ANY, excluding=("fsw/interface", "fsw/transport", "fsw/astro")),

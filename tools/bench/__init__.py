@@ -8,6 +8,9 @@
   simulator's InSight approach stream (range, Doppler, optical; a synthetic stream from the
   onboard models if the simulator is not installed), µs per measurement, against the same
   filters run as separate one-filter banks (what the stacking across filters saves).
+* ``icd-decode``: strict decoding of the stream's measurements (``codec.from_json``: every type,
+  range, size and key checked) against ``json.loads`` of the same payloads, which checks nothing;
+  µs per message, and ``messages_per_s`` strict.
 
 Filter consistency (NEES/NIS against the simulator's truth over Monte Carlo seeds) is measured
 by :mod:`tools.bench.consistency`.
@@ -148,6 +151,39 @@ def bench_ekf(config: BankConfig, name: str, stream: tuple, env: Environment, re
     }
 
 
+def bench_decode(stream: tuple, number: int = 3, repeat: int = 5) -> dict[str, Any]:
+    """µs per message: strict ICD decoding of the stream's measurements vs ``json.loads`` alone."""
+    from fsw.interface import codec
+    from fsw.interface.messages import Measurement
+
+    payloads = [codec.to_json(m) for m in stream[3]]
+
+    def ours() -> None:
+        for p in payloads:
+            codec.from_json(Measurement, p)
+
+    def reference() -> None:
+        for p in payloads:
+            _json.loads(p)
+
+    t_ours = t_ref = float("inf")
+    for _ in range(repeat):  # interleaved
+        t_ours = min(t_ours, _best_of(ours, number, 1) / len(payloads))
+        t_ref = min(t_ref, _best_of(reference, number, 1) / len(payloads))
+    return {
+        "name": "icd-decode",
+        "ours": t_ours * 1e6,
+        "reference": t_ref * 1e6,
+        "unit": "us/message",
+        "ratio": t_ref / t_ours,
+        "messages_per_s": 1.0 / t_ours,
+        "messages": len(payloads),
+        "mean_bytes": sum(map(len, payloads)) / max(len(payloads), 1),
+        "reference_impl": "json.loads of the same payloads (no validation)",
+        "stream": stream[4],
+    }
+
+
 def run_benchmarks(json: bool = False, quick: bool = False, out: IO[str] | None = None) -> list[dict[str, Any]]:
     """Run all benchmarks and print them (text, or one JSON object per line)."""
     out = out if out is not None else sys.stdout
@@ -173,4 +209,5 @@ def run_benchmarks(json: bool = False, quick: bool = False, out: IO[str] | None 
     stream = _stream(120 if quick else 600, env)
     emit(bench_ekf(preset("nominal"), "ekf-bank-3", stream, env, repeat=1 if quick else 3))
     emit(bench_ekf(preset("acs-q"), "ekf-bank-6", stream, env, repeat=1 if quick else 3))
+    emit(bench_decode(stream, number=1 if quick else 3, repeat=3 if quick else 7))
     return results

@@ -101,5 +101,6 @@ def run(args) -> int:
             print(f"sim: the FSW restarted {counts['consumer_restarts']} time(s); {counts['resent']} measurements "
                   "sent again after its checkpoints", file=sys.stderr)
         print(f"sim: published {counts.get('measurements', 0)} measurements as run {args.run_id}; "
-              f"process CPU {time.process_time():.1f} s", file=sys.stderr)
+              f"credit window: {counts.get('credit_waits', 0)} waits, {counts.get('credit_queries', 0)} progress "
+              f"queries; process CPU {time.process_time():.1f} s", file=sys.stderr)
     return 0
