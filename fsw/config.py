@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 from fsw.executive.config import BudgetConfig
 from fsw.fdir.config import DetectorConfig
@@ -123,8 +123,8 @@ class InitialState:
     """A-priori spacecraft state uplinked to the FSW before the run (never the truth)."""
 
     t_s: float = spec(doc="epoch, TDB seconds past J2000", unit="s")
-    position_km: tuple[float, ...] = spec(doc="Mars-centred ICRF position", unit="km", shape=(3,))
-    velocity_km_s: tuple[float, ...] = spec(doc="Mars-centred ICRF velocity", unit="km/s", shape=(3,))
+    position_km: tuple[float, ...] = spec(doc="ICRF position from the central body (Mars; the Earth in Earth-orbit scenarios)", unit="km", shape=(3,))
+    velocity_km_s: tuple[float, ...] = spec(doc="ICRF velocity relative to the central body (Mars; the Earth in Earth-orbit scenarios)", unit="km/s", shape=(3,))
 
 
 @dataclass(frozen=True)
@@ -146,8 +146,14 @@ class FswConfig:
     initial_state: InitialState | None = spec(
         None, doc="a-priori state; none: the launcher derives it from the scenario (design trajectory + a-priori error draw)"
     )
+    central_body: Literal["mars", "earth"] = spec(
+        "mars", doc="mars: the Mars-centred EKF bank (fsw.filters.bank); earth: the Earth-orbit bank of ground-station "
+        "tracking after injection (fsw.filters.orbit_bank: two-body + J2, range, range rate, azimuth, elevation; "
+        "each filter's name, process_noise, velocity_noise_psd and a-priori sigmas are used)")
 
     def __post_init__(self) -> None:
+        if self.central_body == "earth" and self.rqp.enabled:
+            raise ValueError("RQP adaptation is not available with the Earth-orbit bank (central_body: earth)")
         names = [g.network for g in self.gating]
         if len(set(names)) != len(names):
             raise ValueError(f"each gating network may appear once, got {names}")

@@ -30,6 +30,8 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import msgspec
+
 import fsw.transport as tp
 from fsw.interface import codec, topics
 from fsw.interface.messages import SCHEMA_VERSION, RunStatus
@@ -129,7 +131,7 @@ class _Writer:
         if cls is None:
             self.unknown[got.topic] = self.unknown.get(got.topic, 0) + 1
             try:
-                message = json.loads(got.payload)
+                message = _parse_json(got.payload)
             except ValueError:
                 self._invalid(got)
                 return
@@ -137,7 +139,7 @@ class _Writer:
             try:
                 if got.schema and got.schema != codec.schema_name(cls):
                     raise ValueError(f"schema {got.schema}")
-                message = codec.from_json(cls, got.payload) if self.validate else json.loads(got.payload)
+                message = codec.from_json(cls, got.payload) if self.validate else _parse_json(got.payload)
             except ValueError:  # ICDError is a ValueError, and so is a JSON syntax error
                 self._invalid(got)
                 return
@@ -148,6 +150,16 @@ class _Writer:
             self.tap(got.topic, cls, got.payload, message, log_ns)
         if isinstance(message, RunStatus) and message.state == "end-of-run":
             self.ends.add(message.source)
+
+
+def _parse_json(payload: bytes) -> Any:
+    """The JSON value of a payload not validated against its type: msgspec parses the same values
+    as ``json.loads`` several times faster; what it refuses (NaN or Infinity tokens, a lone
+    surrogate) ``json.loads`` judges as before."""
+    try:
+        return msgspec.json.decode(payload)
+    except msgspec.DecodeError:
+        return json.loads(payload)
 
 
 def _record_announced_ends(sub: tp.Subscriber, write: _Writer, producers: Sequence[str],

@@ -107,7 +107,8 @@ def publish_run(
                 break
             except tp.ConsumerRestarted as restart:  # the FSW restarted after the last measurement went out
                 measurements.rewind(restart)
-        counts = dict(counts, resent=measurements.resent, consumer_restarts=len(measurements.rewinds))
+        counts = dict(counts, resent=measurements.resent, consumer_restarts=len(measurements.rewinds),
+                      credit_queries=sum(w.queries for w in credit), credit_waits=sum(w.waits for w in credit))
         if progress is not None:
             progress(1.0)
         return counts

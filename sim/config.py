@@ -12,6 +12,7 @@ from fsw.interface.typed import spec
 from sim.clock import ClockConfig
 from sim.dynamics.config import ForceModelConfig, TrajectoryConfig
 from sim.faults.config import FaultConfig, fault_ids
+from sim.scenarios.leo_injection import LeoInjectionConfig
 from sim.sensors.config import OpticalConfig, RadiometricConfig
 
 
@@ -28,9 +29,23 @@ class SimConfig:
     truth_interval_s: float = spec(
         600.0, doc="cadence of published Truth messages; 0 publishes one at every measurement time", unit="s", ge=0.0
     )
+    leo: LeoInjectionConfig | None = spec(
+        None, doc="an Earth orbiter tracked from the ground just after injection (Garhwal, Halder & Sinha); when set, "
+        "it replaces the Mars trajectory, clock, radiometric and optical sections")
+
+    @property
+    def span_days(self) -> float:
+        """Length of the simulated arc [day] (the Mars trajectory's, or the Earth-orbit tracking arc)."""
+        return self.leo.arc_s / 86400.0 if self.leo is not None else self.trajectory.span_days
+
+    @property
+    def trajectory_kind(self) -> str:
+        return "leo-injection" if self.leo is not None else self.trajectory.kind
 
     def __post_init__(self) -> None:
         fault_ids(self.faults)  # unique identifiers
+        if self.leo is not None and self.faults:
+            raise ValueError("faults are not available in the Earth-orbit (leo) case")
         span = self.trajectory.span_days
         for f in self.faults:
             if f.onset_day > span:

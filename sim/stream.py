@@ -20,7 +20,7 @@ from typing import Iterator, cast
 
 import numpy as np
 
-from sim.truth.timescales import tdb_to_unix
+from sim.truth.timescales import tdb_to_unix, utc_iso_to_tdb
 from fsw.interface import topics
 from fsw.interface.messages import FaultEvent, Measurement, Stamp, Truth
 from sim.clock import ClockTruth, simulate_clock
@@ -42,6 +42,7 @@ from sim.sensors.geometry import Scene
 from sim.sensors.optical import OpticalData, simulate_optical
 from sim.sensors.radiometric import RadioData, simulate_radiometric
 from sim.trajectories.design import arc_span, build_truth_trajectory
+from sim.scenarios.leo_injection import generate as leo_generate
 
 #: Components with their own random stream, in spawn order (append only: never reorder;
 #: a spawned child depends only on its index, so appending leaves the others unchanged).
@@ -143,12 +144,39 @@ def _truth_messages(trajectory, clock: ClockTruth, windows, t: np.ndarray) -> li
 
 
 def scenario_span(cfg: SimConfig) -> tuple[float, float]:
-    """(t_start, t_end) TDB of the run (the approach arc ending at entry, or the cruise arc)."""
+    """(t_start, t_end) TDB of the run (the approach arc ending at entry, the cruise arc, or the
+    tracking arc after an Earth-orbit injection)."""
+    if cfg.leo is not None:
+        t0 = utc_iso_to_tdb(cfg.leo.epoch_utc)
+        return t0, t0 + cfg.leo.arc_s
     return arc_span(cfg.trajectory)
+
+
+def leo_run(cfg: SimConfig, seed: int) -> SimRun:
+    """One run of the Earth-orbit injection case (``cfg.leo``): its measurements, and Truth
+    messages (Earth-centred GCRS state; no clock or force parameters) every ``truth_interval_s``."""
+    assert cfg.leo is not None
+    run = leo_generate(cfg.leo, seed)
+    every = max(1, int(round(cfg.truth_interval_s * cfg.leo.rate_hz))) if cfg.truth_interval_s > 0.0 else 1
+    idx = np.arange(0, run.t.size, every)
+    stamps = _stamps(run.t[idx])
+    truth = [Truth(t_s=float(run.t[k]), timestamp=stamps[j], position_km=tuple(float(v) for v in run.truth[k, 0:3]),
+                   velocity_km_s=tuple(float(v) for v in run.truth[k, 3:6]), clock_phase_s=0.0, clock_frequency=0.0,
+                   clock_drift_per_s=0.0)
+             for j, k in enumerate(idx)]
+    t_meas = np.array([m.t_s for m in run.measurements])
+    return SimRun(measurements=run.measurements, truth=truth, fault_events=[], t_start=float(run.t[0]),
+                  t_end=float(run.t[-1]), seed=int(seed), t_true=t_meas,
+                  origin=np.full(t_meas.size, "leo", dtype=object), index=np.arange(t_meas.size, dtype=np.int64),
+                  config=cfg)
 
 
 def generate(cfg: SimConfig = SimConfig(), faults: tuple[FaultConfig, ...] | None = None, seed: int = 0) -> SimRun:
     """Simulate one run. ``faults`` replaces ``cfg.faults`` when given (e.g. a preset)."""
+    if cfg.leo is not None:
+        if faults:
+            raise ValueError("faults are not available in the Earth-orbit (leo) case")
+        return leo_run(cfg, seed)
     faults = tuple(cfg.faults if faults is None else faults)
     seeds = component_seeds(seed)
     t_start, t_end = scenario_span(cfg)

@@ -220,3 +220,43 @@ def test_short_scenario_flies_in_process_with_a_fuzzy_adaptive_filter(short_e2e_
     assert fuzzy["name"] in result.summary.filters
     estimates = result.topic("fsw/estimate/" + fuzzy["name"])
     assert estimates and all(np.isfinite(e.position_sigma_km) and e.position_sigma_km > 0 for e in estimates)
+    final = result.topic("fsw/status")[-1].counts
+    assert final["adaptive_lp_solves"] > 0 and final["adaptive_lp_us"] > 0
+
+
+def test_lp_cost_is_declared_to_the_bank_stage_and_counted_in_status() -> None:
+    """Work-unit mode: each enabled fuzzy-adaptive filter adds lp_cost per state to the bank stage;
+    the LP count, failures, fallbacks and CPU go out as RunStatus counters."""
+    from fsw.core.pipeline import Load, bank_cost
+    from fsw.executive.config import BudgetConfig
+    from fsw.filters.bank import FilterBank
+    from fsw.models.environment import Environment
+    from tools.bench.synthetic import entry_state
+
+    fuzzy = AdaptiveQConfig(mode="fuzzy-adaptive", window=5, warmup=5, lp_cost=7.0)
+    lsq = AdaptiveQConfig(mode="lsq-adaptive", window=5, warmup=5)
+    cfg = BankConfig(filters=(FilterConfig(name="fixed"), FilterConfig(name="fuzzy", process_noise=fuzzy),
+                              FilterConfig(name="lsq", process_noise=lsq)))
+    t0, r0, v0 = entry_state()
+    bank = FilterBank(cfg, t0 - 86400.0, r0, v0, Environment())
+    assert bank.adaptive_lp_cost() == 6 * 7.0
+    bank.set_enabled("fuzzy", False)
+    assert bank.adaptive_lp_cost() == 0.0
+    bank.set_enabled("fuzzy", True)
+    budget = BudgetConfig(mode="work-units")
+    plain = bank_cost(budget, Load(active_filters=3, networks=1))
+    assert bank_cost(budget, Load(3, 1, adaptive_lp=bank.adaptive_lp_cost())) == plain + 42.0
+    st = bank.stack
+    n = st.layout.n
+    H = np.zeros((3, 3, n))
+    H[:, np.arange(3), np.arange(3)] = 1.0
+    R = np.broadcast_to(np.eye(3), (3, 3, 3)).copy()
+    rng = np.random.default_rng(2)
+    for k in range(7):
+        st.propagate_to(st.t + 60.0)
+        st.update(st.x[0, 0:3] + rng.normal(0.0, 1.0, 3), st.x[:, 0:3], H, R, np.ones(3, bool), None)
+    counts = bank.adaptive_counts()
+    assert counts["adaptive_lp_solves"] == 6 * 3 and counts["adaptive_lp_failures"] == 0
+    assert counts["adaptive_lp_us"] > 0 and counts["adaptive_fallback_lsq"] == 0
+    plain_bank = FilterBank(BankConfig(filters=(FilterConfig(name="fixed"),)), t0 - 86400.0, r0, v0, Environment())
+    assert plain_bank.adaptive_counts() == {} and plain_bank.adaptive_lp_cost() == 0.0

@@ -7,9 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.stats import chi2 as chi2_dist
+from scipy.stats import expon
 
 from fsw.filters.record import BankRecord
 from fsw.gating import make_network
+from fsw.gating.base import InvalidParameterError
 from fsw.gating.residual_correlation import periodogram, white_noise_covariance
 
 NAMES = ("no-thruster-model", "thruster-model")
@@ -121,3 +123,70 @@ def test_learned_calibration_and_kind_selection():
     net.reset()
     np.testing.assert_allclose(net.weights, 0.5)
     assert net.state_dict()["calibrated"]
+
+
+def feed_all(net, eps):
+    """Feed (K, 2 filters, 1) normalised residuals; return the updates (k, weights)."""
+    S = np.ones((2, 1, 1))
+    out = []
+    for k, e in enumerate(eps):
+        rec = BankRecord(t=float(k), seq=k, kind="range", filters=NAMES, residual=e, S=S,
+                         chi2=e[:, 0] ** 2, processed=np.ones(2, bool))
+        u = net.update(rec)
+        if u is not None:
+            out.append((k, np.asarray(u.weights)))
+    return out
+
+
+def test_disjoint_windows_with_the_exponential_density_match_a_direct_computation():
+    rng = np.random.default_rng(11)
+    window, freq, K = 40, 0.125, 205
+    eps = rng.standard_normal((K, 2, 1))
+    eps[:, 0, 0] += 0.4 * np.sin(2 * np.pi * freq * np.arange(K))
+    net = make_network("residual-correlation", NAMES, {"window": window, "frequencies": (freq,),
+                                                        "update_every": window, "density": "exponential",
+                                                        "lower_bound": None})
+    ups = feed_all(net, eps)
+    # Updates on the records that complete a window, and only then: 39, 79, 119, 159, 199.
+    assert [k for k, _ in ups] == [39, 79, 119, 159, 199]
+    # Independent: numpy's FFT of each disjoint window at bin freq·N, the exponential log-density
+    # (scipy) of each filter's ψ, summed over the windows, normalised from equal priors.
+    loglik = np.zeros(2)
+    for j, (k, w) in enumerate(ups):
+        block = eps[k - window + 1:k + 1, :, 0]
+        psi = np.abs(np.fft.fft(block, axis=0)[int(freq * window)]) ** 2 / window
+        loglik += expon.logpdf(psi)
+        ref = np.exp(loglik - loglik.max())
+        np.testing.assert_allclose(w, ref / ref.sum(), rtol=1e-9)
+    assert ups[-1][1][1] > 0.99  # the filter whose residuals carry the sinusoid loses
+
+
+def test_update_every_keeps_the_statistic_and_thins_the_updates():
+    rng = np.random.default_rng(12)
+    eps = rng.standard_normal((60, 2, 1))
+    every = make_network("residual-correlation", NAMES, {"window": 20, "frequencies": (0.1,)})
+    thin = make_network("residual-correlation", NAMES, {"window": 20, "frequencies": (0.1,), "update_every": 7})
+    a, b = feed_all(every, eps), feed_all(thin, eps)
+    assert [k for k, _ in a] == list(range(19, 60))
+    assert [k for k, _ in b] == list(range(19, 60, 7))
+    np.testing.assert_allclose(every.statistic(), thin.statistic())
+    # The first update of both is the same single-window evidence.
+    np.testing.assert_allclose(a[0][1], b[0][1])
+
+
+def test_update_every_and_density_are_validated():
+    with pytest.raises(InvalidParameterError, match="update_every"):
+        make_network("residual-correlation", NAMES, {"update_every": 0})
+    with pytest.raises(InvalidParameterError, match="density"):
+        make_network("residual-correlation", NAMES, {"density": "cauchy"})
+
+
+def test_changing_update_every_keeps_the_window():
+    rng = np.random.default_rng(13)
+    net = make_network("residual-correlation", NAMES, {"window": 20, "frequencies": (0.1,)})
+    feed_all(net, rng.standard_normal((25, 2, 1)))
+    before = net.statistic()
+    net.set_param("update_every", 5)
+    np.testing.assert_allclose(net.statistic(), before)  # no refill of the window
+    ups = feed_all(net, rng.standard_normal((10, 2, 1)))
+    assert len(ups) == 2  # records 25..34: those 5 and 10 samples after the last update

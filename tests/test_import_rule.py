@@ -25,7 +25,7 @@ ANY = None  # any third-party library
 
 SHARED_ASTRO = ("fsw.astro.constants", "fsw.astro.ephemeris", "fsw.astro.frames")
 ONBOARD_MODELS = ("fsw.astro.time", "fsw.astro.earth", "fsw.astro.stations", "fsw.astro.moons", "fsw.astro.mars",
-                  "fsw.astro.asteroids")
+                  "fsw.astro.asteroids", "fsw.astro.tracking_stations")
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,7 @@ class Layer:
 
 
 LAYERS = (
-    Layer("fsw/interface", ("fsw.interface",), ("numpy", "yaml")),
+    Layer("fsw/interface", ("fsw.interface",), ("numpy", "yaml", "msgspec")),
     Layer("fsw/transport", ("fsw.transport", "fsw.interface"), ("numpy", "zenoh")),
     Layer("fsw/astro", ("fsw.astro", "fsw.interface"), ANY),
     Layer("fsw", ("fsw",), ANY, excluding=("fsw/interface", "fsw/transport", "fsw/astro")),

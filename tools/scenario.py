@@ -33,6 +33,11 @@ class ScenarioConfig:
     sim: SimConfig = spec(default_factory=SimConfig, doc="truth and sensor simulator")
     fsw: FswConfig = spec(default_factory=FswConfig, doc="flight software")
 
+    def __post_init__(self) -> None:
+        earth = self.sim.leo is not None
+        if earth != (self.fsw.central_body == "earth"):
+            raise ValueError("sim.leo (an Earth orbiter) and fsw.central_body: earth go together")
+
 
 def builtin_names() -> list[str]:
     """Names of the built-in scenarios."""
@@ -61,6 +66,8 @@ def with_fault(cfg: ScenarioConfig, fault: str | None, onset_day: float | None =
         return cfg
     if fault not in FAULT_PRESETS:
         raise ConfigError("--fault", None, "", "one of " + ", ".join(FAULT_PRESETS), repr(fault) + did_you_mean(fault, FAULT_PRESETS))
+    if cfg.sim.leo is not None:
+        raise ConfigError("--fault", None, "", "no fault: the Earth-orbit (leo) case has none", repr(fault))
     faults = preset(fault, onset_day=onset_day)
     return dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, faults=tuple(faults)))
 
@@ -72,6 +79,17 @@ def initial_state(cfg: ScenarioConfig, seed: int) -> InitialState:
     Drawn from its own generator so it never changes the simulator's noise draws."""
     if cfg.fsw.initial_state is not None:
         return cfg.fsw.initial_state
+    if cfg.sim.leo is not None:
+        # the Earth-orbit case: the a-priori is the planned injection state (the truth is that
+        # plus the injection dispersion; Garhwal, Halder & Sinha's poor a-priori)
+        from sim.scenarios.leo_injection import planned_state
+        from sim.truth.earth import EarthOrientation
+        from sim.truth.timescales import utc_iso_to_tdb
+
+        t0 = utc_iso_to_tdb(cfg.sim.leo.epoch_utc)
+        z = planned_state(cfg.sim.leo, t0, EarthOrientation(t0 - 600.0, t0 + 600.0))
+        return InitialState(t_s=float(t0), position_km=tuple(float(v) for v in z[0:3]),
+                            velocity_km_s=tuple(float(v) for v in z[3:6]))
     t0, x0 = design_initial_state(cfg.sim.trajectory, cfg.sim.forces)
     f0 = cfg.fsw.bank.filters[0]
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x0A1B]))

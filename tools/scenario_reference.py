@@ -95,7 +95,7 @@ def _builtins_section() -> list[str]:
         filters = ", ".join(f.name for f in cfg.fsw.bank.filters)
         gating = ", ".join(g.network for g in cfg.fsw.gating)
         faults = ", ".join(f"{f.type} from day {f.onset_day:g}" for f in cfg.sim.faults) or "none"
-        out.append(f"| `{name}` | {cfg.sim.trajectory.kind} | {cfg.sim.trajectory.span_days:g} | {_cell(filters)} | "
+        out.append(f"| `{name}` | {cfg.sim.trajectory_kind} | {cfg.sim.span_days:.3g} | {_cell(filters)} | "
                    f"{_cell(gating)} | {_cell(faults)} | {_cell(cfg.description)} |")
     out += ["", "## Built-in campaigns", "", "`navbank campaign NAME` runs one.", "",
             "| campaign | description |", "|---|---|"]

@@ -49,6 +49,7 @@ def status_counts(counters: CoreCounters, guard: SequenceGuard, bank: FilterBank
     c["backlog"] = int(executive.backlog)
     c["pending"] = int(executive.pending_jobs)  # queued, due or not yet due
     c["rejected"] = c.get("rejected", 0) + c["decode_errors"] + c["bank_rejected"]
+    c.update(bank.adaptive_counts())  # FLR LPs, failures, fallbacks, CPU (only with adaptive filters)
     if extra is not None:
         c.update(extra())
     return c

@@ -23,7 +23,7 @@ skipped; a stage that raises is contained and counted by the executive.
 from __future__ import annotations
 
 import time
-from typing import Callable, ClassVar
+from typing import Callable, ClassVar, cast
 
 import numpy as np
 
@@ -40,6 +40,7 @@ from fsw.executive import BudgetReportData, FrameExecutive
 from fsw.executive.work import Job, Stage
 from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.filters.bank import FilterBank, FilterEstimate
+from fsw.filters.orbit_bank import OrbitBank
 from fsw.filters.errors import MeasurementRejected
 from fsw.gating.base import GatingError, GatingNetwork, WeightsUpdate
 from fsw.gating.registry import make_network
@@ -58,7 +59,13 @@ class FswCore:
         self.run_id = run_id
         self._sink = emit
         init: InitialState = config.initial_state
-        self.bank = FilterBank(config.bank, init.t_s, init.position_km, init.velocity_km_s)
+        if config.central_body == "earth":
+            # the Earth-orbit bank offers every FilterBank method the core calls (RQP, the one
+            # user of the rest, is refused with it at configuration)
+            self.bank = cast(FilterBank, OrbitBank.from_config(config.bank, init.t_s, init.position_km,
+                                                               init.velocity_km_s))
+        else:
+            self.bank = FilterBank(config.bank, init.t_s, init.position_km, init.velocity_km_s)
         self.filters = tuple(self.bank.names)
         self.networks: dict[str, GatingNetwork] = {
             g.network: make_network(g.network, self.filters, g.params) for g in config.gating
@@ -180,7 +187,8 @@ class FswCore:
 
     def _queue(self, meas: m.Measurement) -> None:
         self.advance_to(meas.t_s)
-        load = Load(active_filters=int(self.bank.active.sum()), networks=len(self.networks))
+        load = Load(active_filters=int(self.bank.active.sum()), networks=len(self.networks),
+                    adaptive_lp=self.bank.adaptive_lp_cost())
         self.executive.submit(build_job(self, self.PIPELINE, meas, self.config.budget, load))
         if self.rqp.enabled or self.rqp.busy:
             # one slice of the search per measurement, lowest priority, its own lane: never ahead

@@ -37,6 +37,7 @@ class Load:
 
     active_filters: int
     networks: int
+    adaptive_lp: float = 0.0  # work units of the FLR slope fits of the enabled fuzzy-adaptive filters
 
 
 def ingest_cost(budget: BudgetConfig, load: Load) -> float:
@@ -45,8 +46,9 @@ def ingest_cost(budget: BudgetConfig, load: Load) -> float:
 
 def bank_cost(budget: BudgetConfig, load: Load) -> float:
     """The bank advances every enabled filter in one vectorised stage (they share the
-    propagation of the union state): one primary filter plus an increment per further filter."""
-    return budget.primary_cost + budget.filters_cost * max(load.active_filters - 1, 0)
+    propagation of the union state): one primary filter plus an increment per further filter, plus
+    the linear programs of fuzzy-adaptive process noise, which run inside the update."""
+    return budget.primary_cost + budget.filters_cost * max(load.active_filters - 1, 0) + load.adaptive_lp
 
 
 def gating_cost(budget: BudgetConfig, load: Load) -> float:

@@ -13,6 +13,12 @@ bound M on the fuzzy coefficients (|p₀|, c₀ ≤ M and |p₁|, c₁ ≤ M / s
 window the LP cannot fit within the bound is a counted, infeasible outcome rather than an
 arbitrarily large Q.
 
+Cost: the fits run inside the update, i.e. inside the bank's executive stage, so in CPU budget mode
+their measured time is charged with it; in work-unit mode the stage's declared cost grows by
+``lp_cost`` per LP (:meth:`AdaptiveQ.declared_cost`, added through the pipeline's ``Load``). The LP
+count, failures, fallbacks and total LP CPU time go out in every FSW ``RunStatus`` (``adaptive_*``
+counters) when a filter is adaptive.
+
 Bad LP outcomes (infeasible, unbounded, solver failure, a degenerate window whose times do not
 span an interval) are counted; the fallback is the least-squares slope, and where that too is
 undefined (all times equal) the state's previous Q.
@@ -47,6 +53,10 @@ class AdaptiveQConfig:
         shape=(6,),
     )
     warmup: int = spec(10, doc="residuals collected before the adaptive Q is applied (plain Q until then)", ge=2)
+    lp_cost: float = spec(
+        45.0, doc="declared work-unit cost of one FLR linear program (budget mode work-units; six per update of a "
+        "fuzzy-adaptive filter): ~0.9 ms of host CPU at ~20 us per work unit", unit="work unit", ge=0.0,
+    )
 
     def __post_init__(self) -> None:
         if self.warmup > self.window:
@@ -127,6 +137,23 @@ class AdaptiveQCounters:
     def lp_mean_us(self) -> float:
         return 1e6 * self.lp_seconds / self.lp_solves if self.lp_solves else 0.0
 
+    def add(self, other: "AdaptiveQCounters") -> None:
+        self.lp_solves += other.lp_solves
+        self.lp_seconds += other.lp_seconds
+        self.lp_failures += other.lp_failures
+        self.fallback_lsq += other.fallback_lsq
+        self.fallback_previous += other.fallback_previous
+
+    def as_counts(self) -> dict[str, int]:
+        """The ``RunStatus`` counters: LPs solved, failed, fallbacks, and their total host CPU (µs)."""
+        return {
+            "adaptive_lp_solves": self.lp_solves,
+            "adaptive_lp_failures": self.lp_failures,
+            "adaptive_fallback_lsq": self.fallback_lsq,
+            "adaptive_fallback_previous": self.fallback_previous,
+            "adaptive_lp_us": int(round(1e6 * self.lp_seconds)),
+        }
+
 
 @dataclass
 class AdaptiveQ:
@@ -205,6 +232,12 @@ class AdaptiveQ:
         else:
             c.fallback_previous += 1
         return s
+
+    def declared_cost(self) -> float:
+        """Work units the next update of this filter is charged for its slope fits: one LP per
+        state in fuzzy mode (an upper bound: none run before the window is warm); least squares
+        is part of the filter step's own cost."""
+        return self.config.lp_cost * self.n_states if self.config.mode == "fuzzy-adaptive" else 0.0
 
     def q_diagonal(self, dt: float) -> np.ndarray:
         """Diagonal of Q to add over a propagation interval dt: eq. 1 per unit sample interval,

@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike
 
 from fsw.filters import kinds
 from fsw.filters.combine import best_index, normalised_weights, weighted_estimate
+from fsw.filters.adaptive_q import AdaptiveQCounters
 from fsw.filters.config import BankConfig
 from fsw.filters.ekf import EKFStack
 from fsw.filters.estimate import FilterEstimate
@@ -99,6 +100,23 @@ class FilterBank:
         """RTPC of one filter."""
         i = self.index(name)
         return float(math.sqrt(np.trace(self.stack.P[i, 0:3, 0:3])))
+
+    # -- adaptive process noise ----------------------------------------------------------------
+    def adaptive_lp_cost(self) -> float:
+        """Declared work units of the enabled filters' FLR slope fits in one update (Garhwal et al.;
+        :meth:`fsw.filters.adaptive_q.AdaptiveQ.declared_cost`); 0 without fuzzy-adaptive filters."""
+        return float(sum(aq.declared_cost() for aq, on in zip(self.stack.adaptive_q, self.active)
+                         if aq is not None and on))
+
+    def adaptive_counts(self) -> dict[str, int]:
+        """The adaptive process-noise counters summed over the bank; empty without adaptive filters."""
+        total = AdaptiveQCounters()
+        present = False
+        for aq in self.stack.adaptive_q:
+            if aq is not None:
+                total.add(aq.counters)
+                present = True
+        return total.as_counts() if present else {}
 
     # -- commands ------------------------------------------------------------------------------
     def set_enabled(self, name: str, enabled: bool) -> None:

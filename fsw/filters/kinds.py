@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from fsw.filters.kind_model import KindModel
 from fsw.filters.optical_kind import OpticalModel
 from fsw.filters.radiometric_kinds import DopplerModel, RangeModel
+from fsw.filters.tracking_kinds import MODELS as TRACKING_MODELS, TrackingKindModel
 from fsw.interface import kinds
 
 
@@ -37,6 +38,26 @@ FILTER_KINDS: tuple[str, ...] = tuple(REGISTRY)
 
 #: Expected number of components of each kind the bank processes.
 DIMENSIONS: Mapping[str, int | None] = {k: m.declaration.dimension for k, m in REGISTRY.items()}
+
+
+def _register_tracking(*models: TrackingKindModel) -> dict[str, TrackingKindModel]:
+    out: dict[str, TrackingKindModel] = {}
+    for model in models:
+        name = model.declaration.name
+        if kinds.BY_NAME.get(name) != model.declaration:
+            raise ValueError(f"kind {name!r} is not declared in the ICD as its model says")
+        if name in out or name in REGISTRY:
+            raise ValueError(f"kind {name!r} registered twice")
+        out[name] = model
+    return {k: out[k] for k in kinds.NAMES if k in out}
+
+
+#: Kind name -> its onboard model in the Earth-orbit bank (:mod:`fsw.filters.orbit_bank`, ground-station
+#: tracking after injection), in ICD order. The Mars bank above has no model for these kinds.
+ORBIT_REGISTRY: Mapping[str, TrackingKindModel] = _register_tracking(*TRACKING_MODELS)
+
+#: The kinds the Earth-orbit bank has models for.
+ORBIT_KINDS: tuple[str, ...] = tuple(ORBIT_REGISTRY)
 
 
 def model(kind: str) -> KindModel:

@@ -20,6 +20,24 @@ filter k is a hypothesis; for each filter this network
 4. updates the hypothesis probabilities with the MMAE rule (eq. 17) in the log domain, with the
    Hanlon & Maybeck 2000 lower bound on the probabilities.
 
+Two choices decide how often the hypothesis test is fooled in nominal operation:
+
+* ``update_every`` (M): the probabilities are updated on every M-th record once the window is full
+  ("propagating several time samples before updating", one of the hypothesis-test modifications
+  Hanlon & Maybeck 2000 §II.B.2 list). Successive windows share N − M samples, so with M = 1 every
+  residual enters the product of eq. 17 about N times and a random excursion of ψ moves the
+  probabilities N times as far as its evidence warrants; with M = N the windows are disjoint and,
+  under the true hypothesis, independent, and eq. 17 is the likelihood of the data it claims to be.
+* ``density``: ``"gaussian"`` is eq. 21 as the paper writes it. Under hypothesis k the normalised
+  residuals are white, so for a frequency away from 0 and Nyquist each component of ψ is an
+  exponential variable of mean 1 (χ²₂/2) — the paper saw ψ "more chi-squared distributed" in the
+  no-failure case. ``"exponential"`` uses that exact density, ln f = −Σ_d ψ_d/ψ̄_d − ln ψ̄_d (ψ̄ = 1,
+  or the learned mean), whose penalty grows linearly rather than quadratically with the excess
+  power, so the exponential tail of a correct filter's ψ is not mistaken for a failure signature.
+  It is exact for consecutive samples (``time_base = "sample"``) at frequencies that are multiples
+  of 1/N, close to it elsewhere away from 0 and Nyquist, and an approximation for irregular time tags.
+  The statistic reported is then q = 2 Σ_d ψ_d/ψ̄_d (χ²_{2d} under the hypothesis).
+
 Conditional mean and covariance (``calibration``):
 
 * ``"analytic"`` — under hypothesis k the normalised residuals are white with unit variance, so
@@ -71,6 +89,13 @@ class ResidualCorrelationParams:
         "analytic", doc="conditional mean/covariance of ψ: white-residual theory or learned from a nominal span"
     )
     calibration_count: int = spec(400, doc="windows of nominal operation used by calibration = 'learn'", ge=2)
+    update_every: int = spec(
+        1, doc="M: update the probabilities on every M-th record once the window is full (M = window: disjoint windows)",
+        ge=1,
+    )
+    density: Literal["gaussian", "exponential"] = spec(
+        "gaussian", doc="density of ψ under each hypothesis: eq. 21's Gaussian or the exact exponential of white residuals"
+    )
     lower_bound: float | None = spec(
         1e-3, doc="floor on each hypothesis probability (Hanlon & Maybeck 2000 lower bounding); None: no floor", gt=0.0, lt=1.0
     )
@@ -229,10 +254,17 @@ class ResidualCorrelationNetwork(GatingNetwork):
             return None
         if self.params.calibration == "learn" and not self._learn(psi):
             return None
+        if (self._samples - self.params.window) % self.params.update_every:
+            return None
         mean, cov_inv, logdet = self._nominal(record.n)
-        r = psi - mean
-        q = np.einsum("kd,kde,ke->k", r, cov_inv, r)  # Hanlon & Maybeck 2000 eq. 22
-        loglik = -0.5 * (q + logdet + r.shape[1] * np.log(2.0 * np.pi))  # eq. 21
+        if self.params.density == "exponential":
+            ratio = psi / mean
+            q = 2.0 * ratio.sum(axis=1)
+            loglik = -0.5 * q - np.log(mean).sum(axis=1)
+        else:
+            r = psi - mean
+            q = np.einsum("kd,kde,ke->k", r, cov_inv, r)  # Hanlon & Maybeck 2000 eq. 22
+            loglik = -0.5 * (q + logdet + r.shape[1] * np.log(2.0 * np.pi))  # eq. 21
         logp = log_normalize(self._logp + np.where(active, loglik, 0.0), active)  # eq. 17
         self._logp = apply_lower_bound(logp, active, self.params.lower_bound)
         update = self._make_update(record, self._count, self._weights(), statistic=q)

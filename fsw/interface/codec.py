@@ -4,16 +4,20 @@ The wire format is compact UTF-8 JSON of the message fields (no envelope); the m
 schema version travel beside it (Zenoh encoding schema, MCAP schema name), as
 ``navbank.<Type>/v<version>``. Decoding is strict: a payload that is not valid JSON, has an
 unknown or missing key, a wrong type or length, a non-finite number or an unknown enum value
-raises :class:`ICDError` — never anything further down.
+raises :class:`ICDError` — never anything further down. Both directions run compiled
+(:mod:`fsw.interface.compiled`, generated from the same declarations); what the compiled path
+refuses goes through the reference implementation (:mod:`fsw.interface.typed`), which has the
+last word on every refusal and its message.
 """
 
 from __future__ import annotations
 
 import json
+import typing
 from functools import lru_cache
 from typing import Any, TypeVar
 
-from fsw.interface import messages
+from fsw.interface import compiled, messages
 from fsw.interface.typed import DecodeError, decode, encode, json_schema
 
 T = TypeVar("T")
@@ -52,6 +56,10 @@ def to_dict(msg: Any) -> dict:
 def to_json(msg: Any) -> bytes:
     """Encode a message as compact JSON bytes (floats round-trip exactly)."""
     try:
+        return compiled.encode(msg)
+    except compiled.Refused:
+        pass  # the reference encoder says why (or writes what msgspec would not)
+    try:
         return json.dumps(encode(msg), separators=(",", ":"), allow_nan=False).encode()
     except ValueError as exc:  # a non-finite float slipped into a message built in code
         raise ICDError(type(msg).__name__, "", "finite numbers", str(exc)) from None
@@ -70,9 +78,17 @@ def from_dict(cls: type[T], data: Any) -> T:
 def from_json(cls: type[T], payload: bytes | bytearray | memoryview | str) -> T:
     """Decode and validate a JSON payload as message type ``cls``.
 
-    A payload longer than :data:`MAX_PAYLOAD_BYTES` is refused before it is parsed."""
+    A payload longer than :data:`MAX_PAYLOAD_BYTES` is refused before it is parsed. The compiled
+    decoder (:mod:`fsw.interface.compiled`) accepts what conforms; a payload it refuses goes
+    through the reference decoder, whose error names the key path."""
     if len(payload) > MAX_PAYLOAD_BYTES:
         raise ICDError(cls.__name__, "", f"a payload of at most {MAX_PAYLOAD_BYTES} bytes", f"{len(payload)} bytes")
+    fast = compiled.decoder(typing.cast(type, cls))
+    if fast is not None:
+        try:
+            return typing.cast(T, fast(payload))
+        except compiled.Refused:
+            pass
     try:
         if isinstance(payload, (bytes, bytearray, memoryview)):
             payload = bytes(payload).decode("utf-8")

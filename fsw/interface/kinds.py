@@ -47,8 +47,21 @@ OPTICAL = KindDeclaration(
 GENERIC_LINEAR = KindDeclaration(
     "generic-linear", None, "units of the linear scenario", "z = H x + v of a linear scenario")
 
+# Ground-station tracking of an Earth orbiter (the leo-injection measurements of Garhwal, Halder &
+# Sinha): the station named by ``source`` sees the spacecraft; geometry at the time tag
+# (light time, ~2 ms at LEO distances, left out on both sides).
+STATION_RANGE = KindDeclaration(
+    "station-range", 1, "km", "two-way range from a ground station to an Earth orbiter")
+STATION_RANGE_RATE = KindDeclaration(
+    "station-range-rate", 1, "km/s", "two-way range rate from a ground station to an Earth orbiter")
+AZIMUTH = KindDeclaration(
+    "azimuth", 1, "rad", "topocentric azimuth at a ground station, from north through east (WGS84 normal)")
+ELEVATION = KindDeclaration(
+    "elevation", 1, "rad", "topocentric elevation above a ground station's horizon (WGS84 normal)")
+
 #: Every kind, in ICD order.
-DECLARED: tuple[KindDeclaration, ...] = (RANGE, DOPPLER, OPTICAL, GENERIC_LINEAR)
+DECLARED: tuple[KindDeclaration, ...] = (RANGE, DOPPLER, OPTICAL, GENERIC_LINEAR, STATION_RANGE,
+                                         STATION_RANGE_RATE, AZIMUTH, ELEVATION)
 
 BY_NAME: dict[str, KindDeclaration] = {k.name: k for k in DECLARED}
 NAMES: tuple[str, ...] = tuple(BY_NAME)

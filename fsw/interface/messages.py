@@ -113,8 +113,8 @@ class Truth:
 
     t_s: float = spec(doc="true epoch, TDB seconds past J2000", unit="s")
     timestamp: Stamp = spec(doc="epoch as Unix time")
-    position_km: tuple[float, ...] = spec(doc="Mars-centred ICRF position", unit="km", shape=(3,))
-    velocity_km_s: tuple[float, ...] = spec(doc="Mars-centred ICRF velocity", unit="km/s", shape=(3,))
+    position_km: tuple[float, ...] = spec(doc="ICRF position from the central body (Mars; the Earth in Earth-orbit scenarios)", unit="km", shape=(3,))
+    velocity_km_s: tuple[float, ...] = spec(doc="ICRF velocity relative to the central body (Mars; the Earth in Earth-orbit scenarios)", unit="km/s", shape=(3,))
     clock_phase_s: float = spec(doc="onboard clock phase error (clock reading minus TDB)", unit="s")
     clock_frequency: float = spec(doc="onboard clock fractional frequency error", unit="1")
     clock_drift_per_s: float = spec(doc="onboard clock fractional frequency drift", unit="1/s")
@@ -182,8 +182,8 @@ class Estimate:
     filter: str = spec(max_length=NAME_CHARS, doc="filter name, or 'combined' (gating-weighted sum of the enabled filters, "
                        "Chaer et al. 1997 eq. 3, weights of the detector's network) / 'best' (the filter navigated on: "
                        "smallest RTPC until an anomaly is declared, then the highest-weighted)")
-    position_km: tuple[float, ...] = spec(doc="Mars-centred ICRF position", unit="km", shape=(3,))
-    velocity_km_s: tuple[float, ...] = spec(doc="Mars-centred ICRF velocity", unit="km/s", shape=(3,))
+    position_km: tuple[float, ...] = spec(doc="ICRF position from the central body (Mars; the Earth in Earth-orbit scenarios)", unit="km", shape=(3,))
+    velocity_km_s: tuple[float, ...] = spec(doc="ICRF velocity relative to the central body (Mars; the Earth in Earth-orbit scenarios)", unit="km/s", shape=(3,))
     position_sigma_km: float = spec(doc="root-trace of the position covariance (RTPC)", unit="km", ge=0.0)
     state_names: tuple[str, ...] = spec(max_items=MAX_STATES, max_length=NAME_CHARS, doc="names of the state components")
     state: tuple[float, ...] = spec(max_items=MAX_STATES, doc="full state vector, units per state_names")

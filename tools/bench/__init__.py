@@ -7,7 +7,7 @@ Rows (every one: ``name``, ``ours``, ``reference``, ``unit``, ``ratio``, ``goal`
   ``fsw-core-flop-rate`` (its arithmetic's rate / numpy batched-matmul rate),
   ``inprocess-45day-wall`` (a whole 45-day in-process run, simulator included),
   ``budget-overruns`` (at the nominal budget, start-up included);
-* :mod:`.decode` — ``decode-strict`` (strict ICD decoding vs ``json.loads``);
+* :mod:`.decode` — ``icd-decode`` (strict ICD decoding of the stream's measurements vs ``json.loads``);
 * :mod:`.filters` — ``linear-bank-vs-filterpy``, ``ekf-update-vs-filterpy-N3``/``-N6`` (FilterPy
   ``KalmanFilter`` / ``ExtendedKalmanFilter``) and, not with ``quick``, ``ekf-bank-stacking-3``/``-6``
   (the stacked EKF bank vs the same filters one by one);
@@ -72,7 +72,8 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
             emit(filters.bench_stacking(preset("nominal"), "ekf-bank-stacking-3", stream, env))
             emit(filters.bench_stacking(preset("acs-q"), "ekf-bank-stacking-6", stream, env))
     if want("decode"):
-        emit(decode.bench_decode(seconds=0.5 if quick else 2.0))
+        stream = filters.insight_stream(120 if quick else 600, Environment())
+        emit(decode.bench_decode(seconds=0.5 if quick else 2.0, measurements=stream[3], label=stream[4]))
     span = QUICK_SPAN_DAYS if quick else None
     fig = None
     if want("core") or want("navrun") or want("campaigns"):

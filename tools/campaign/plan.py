@@ -235,7 +235,7 @@ def expand(loaded: LoadedCampaign, extract_weights: tuple[str, ...] | str = ()) 
                             id=rid, cell=cell, seed=seed, scenario=final,
                             fault_label=case.preset if case.preset is not None else case.label,
                             fault_class=fault_class, detector_network=det.network,
-                            detector_calibrated=calibrated, span_days=scen.sim.trajectory.span_days,
+                            detector_calibrated=calibrated, span_days=scen.sim.span_days,
                             extract_weights=keep, keep_mcap=cfg.keep_mcap, monitors=monitor_data,
                         ))
     return CampaignPlan(cfg.name, cfg.description, tasks, cells)

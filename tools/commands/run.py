@@ -162,7 +162,8 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
         # the report's (navbank report) and the campaigns' (in-process summaries)
         wanted = [t for t in mcap_counts(mcap)
                   if t not in ("/sim/measurements", "/fsw/residuals") and not t.startswith(FOXGLOVE_PREFIXES)]
-        messages = [(rec.topic, rec.message) for rec in read_messages(mcap, topics=wanted) if rec.message is not None]
+        messages = [(rec.topic, rec.message) for rec in read_messages(mcap, topics=wanted, sort_in_memory=True)
+                    if rec.message is not None]
         init = cfg.fsw.initial_state
         if init is None:
             raise UsageError("the scenario resolved without an a-priori initial state")
@@ -222,7 +223,7 @@ def run(args) -> int:
         print(f"navbank run {run_id}: live view on ws://{args.live_host}:{port} (Foxglove: Open connection, "
               "Foxglove WebSocket)", file=sys.stderr)
     t0 = time.perf_counter()
-    bar = None if args.quiet else progress_bar(cfg.sim.trajectory.span_days, desc="run", unit="day")
+    bar = None if args.quiet else progress_bar(cfg.sim.span_days, desc="run", unit="day")
     echo = None if bar is None else _fsw_echo(bar)
     status: RunEnding = "complete"
     reason: str | None = None

@@ -84,7 +84,7 @@ def run(args) -> int:
         from sim.app import publish_run
 
         consumers = tuple(c.strip() for c in args.consumers.split(",") if c.strip())
-        span = cfg.sim.trajectory.span_days
+        span = cfg.sim.span_days
         bar = progress_bar(span, desc="sim", unit="day")
         try:
             with joined(args, args.run_id, "sim") as transport:
@@ -101,5 +101,6 @@ def run(args) -> int:
             print(f"sim: the FSW restarted {counts['consumer_restarts']} time(s); {counts['resent']} measurements "
                   "sent again after its checkpoints", file=sys.stderr)
         print(f"sim: published {counts.get('measurements', 0)} measurements as run {args.run_id}; "
-              f"process CPU {time.process_time():.1f} s", file=sys.stderr)
+              f"credit window: {counts.get('credit_waits', 0)} waits, {counts.get('credit_queries', 0)} progress "
+              f"queries; process CPU {time.process_time():.1f} s", file=sys.stderr)
     return 0

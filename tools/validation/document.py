@@ -581,10 +581,14 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
     sections[-1].discussion = chaer1997_rqp.EXPERIMENT4_DISCUSSION
     from tools.validation import hanlon2000
 
-    hm = hanlon2000.run_hanlon2000()
-    sections.append(hanlon2000.hanlon2000_section(hm, hanlon2000.plot_hanlon2000(hm, fig_dir / "hanlon2000-identification.png"),
-                                                  out_dir))
+    for case in hanlon2000.CASES:
+        hm = hanlon2000.run_hanlon2000(case)
+        sections.append(hanlon2000.hanlon2000_section(
+            hm, hanlon2000.plot_hanlon2000(hm, fig_dir / f"hanlon2000-{case}-identification.png"), out_dir))
     sections[-1].discussion = hanlon2000.HANLON2000_DISCUSSION
+    from tools.validation import garhwal
+
+    sections.append(garhwal.build_section(fig_dir, out_dir))
     if cruise:
         from tools.validation.chaer1998 import chaer1998_section
 
