@@ -37,15 +37,12 @@ from numpy.typing import ArrayLike
 from fsw.filters import kalman
 from fsw.filters.adaptive_q import AdaptiveQ
 from fsw.filters.config import BankConfig, FilterConfig
-from fsw.models.clock import clock_process_noise, clock_transition
 from fsw.models.environment import Environment
 from fsw.models.forces import ForceParameters, srp_coefficient
 from fsw.models.layout import StateLayout
+from fsw.kernels.covariance_transition import covariance_transition
 from fsw.models.propagator import Propagator
 from fsw.models.stochastic import apply_ecrv_step, batch_boundaries, ecrv_factors
-
-_EYE3 = np.eye(3)
-
 
 def union_layout(filters: tuple[FilterConfig, ...]) -> StateLayout:
     srp = any(f.srp.scale.bias_sigma > 0 or f.srp.scale.temporal_sigma > 0 for f in filters)
@@ -156,8 +153,11 @@ class EKFStack:
             self._z_to_state[6 + qi, col] = 1.0
             self._state_to_q[col, qi] = 1.0
         self._clock = (L.slices["clock"].start, L.slices["clock"].stop) if L.has("clock") else None
-        self._phi_template = np.zeros((N, n, n))
-        self._phi_template[:, np.arange(6, n), np.arange(6, n)] = 1.0
+        # the column of Y that feeds each state column of Φ's dynamics rows (−1: none)
+        self._phi_source = np.full(n, -1, dtype=np.int64)
+        self._phi_source[0:6] = np.arange(6)
+        for col, qi in self._q_cols:
+            self._phi_source[col] = 6 + qi
         self.batched: list[_Batched] = []
         if L.has("srp_stoch"):
             self.batched.append(_Batched(L.slices["srp_stoch"].start,
@@ -197,28 +197,6 @@ class EKFStack:
         """Acceleration drivers q (N, n_q) of the state: SRP scale, ACS magnitude and tilts, polynomial."""
         return (self.x if x is None else x) @ self._state_to_q
 
-    def transition(self, Y: np.ndarray, h: float) -> np.ndarray:
-        """Full Φ (N, n, n) from the dynamics sensitivity Y (N, 6, 6 + n_q) over a step h."""
-        Phi = self._phi_template.copy()  # identity on the parameter rows
-        Phi[:, 0:6, :] = Y @ self._z_to_state
-        if self._clock is not None:
-            c0, c1 = self._clock
-            Phi[:, c0:c1, c0:c1] = clock_transition(h, c1 - c0)
-        return Phi
-
-    def _add_process_noise(self, P: np.ndarray, h: float) -> None:
-        """P += Q over a step h: clock noise and the optional white acceleration (SNC)."""
-        dt = abs(h)
-        if self._clock is not None:
-            c0, c1 = self._clock
-            P[:, c0:c1, c0:c1] += clock_process_noise(dt, self.clock_q)[:, : c1 - c0, : c1 - c0]
-        if self.snc_psd.any():
-            q = self.snc_psd[:, None, None]
-            P[:, 0:3, 0:3] += (q * dt**3 / 3.0) * _EYE3
-            P[:, 0:3, 3:6] += (q * dt**2 / 2.0) * _EYE3
-            P[:, 3:6, 0:3] += (q * dt**2 / 2.0) * _EYE3
-            P[:, 3:6, 3:6] += (q * dt) * _EYE3
-
     def _propagate_interval(self, t1: float) -> None:
         h = t1 - self.t
         if h == 0.0:
@@ -226,18 +204,19 @@ class EKFStack:
         x = self.x
         q = self.drivers()
         r1, v1, Y = self.propagator.propagate(self.t, t1, x[:, 0:3], x[:, 3:6], q)
-        Phi = self.transition(Y, h)
         x_new = x.copy()
         x_new[:, 0:3] = r1
         x_new[:, 3:6] = v1
-        if self._clock is not None:
-            c0, c1 = self._clock
-            x_new[:, c0:c1] = np.matmul(Phi[:, c0:c1, c0:c1], x[:, c0:c1, None])[:, :, 0]
-        P = Phi @ self.P @ Phi.transpose(0, 2, 1)
-        self._add_process_noise(P, h)
+        c0, c1 = self._clock if self._clock is not None else (0, 0)
+        if c1 - c0 > 1:  # phase += h f (+ h²/2 a), frequency += h a
+            x_new[:, c0] += h * x[:, c0 + 1] + (0.5 * h * h * x[:, c0 + 2] if c1 - c0 > 2 else 0.0)
+            if c1 - c0 > 2:
+                x_new[:, c0 + 1] += h * x[:, c0 + 2]
+        P = np.empty_like(self.P)
+        covariance_transition(np.ascontiguousarray(self.P), Y, self._phi_source, c0, c1, h, self.clock_q, self.snc_psd, P)
         self._last_leg = (self.t, t1, x[:, 0:6].copy(), x_new[:, 0:6].copy(), q, Y)
         self.x = x_new
-        self.P = kalman.symmetrise(P)
+        self.P = P
         self.t = t1
 
     def _events(self, t1: float) -> list[float]:

@@ -77,6 +77,13 @@ class Environment:
             self._hermite = nodes
         return tab
 
+    def table_nodes(self, t_lo: float, t_hi: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """The table covering [t_lo, t_hi] as the compiled kernels read it: SSB positions and
+        velocities at the nodes (n, 5, 3), the first node's epoch and the node step."""
+        tab = self._table_for(t_lo, t_hi)
+        p, v = tab.nodes
+        return p, v, tab.t0, tab.step
+
     def positions_ssb(self, t: float) -> np.ndarray:
         """(5, 3) SSB positions of TABLE_BODIES at one time [km]."""
         return self._table_for(t, t).positions(t)
