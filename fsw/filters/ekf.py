@@ -41,6 +41,7 @@ from fsw.models.environment import Environment
 from fsw.models.forces import ForceParameters, srp_coefficient
 from fsw.models.layout import StateLayout
 from fsw.kernels.covariance_transition import covariance_transition
+from fsw.kernels.joseph_update import joseph_update
 from fsw.models.propagator import Propagator
 from fsw.models.stochastic import apply_ecrv_step, batch_boundaries, ecrv_factors
 
@@ -191,6 +192,7 @@ class EKFStack:
             AdaptiveQ(f.process_noise) if f.process_noise.mode != "fixed" else None for f in cfgs
         ]
         self._any_adaptive = any(aq is not None for aq in self.adaptive_q)
+        self._no_gate = np.full(N, np.inf)
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
@@ -324,18 +326,43 @@ class EKFStack:
     # -- update ---------------------------------------------------------------------------------
     def update(self, y: np.ndarray, h: np.ndarray, H: np.ndarray, R: np.ndarray, does: np.ndarray,
                gate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Joseph-form update of every filter where ``does``; returns (residual, S, chi2, processed)."""
+        """Joseph-form update of every filter where ``does``; returns (residual, S, chi2, processed).
+
+        m ≤ 2 (every kind but a general vector measurement) runs the compiled kernel
+        (:mod:`fsw.kernels.joseph_update`), larger m :func:`kalman.update`: the same arithmetic."""
+        N, n = self.x.shape
+        m = H.shape[1]
+        residual = y[None, :] - h
+        if m > 2:
+            return self._update_numpy(residual, H, R, does, gate)
+        x_new = np.empty((N, n))
+        P_new = np.empty((N, n, n))
+        S = np.empty((N, m, m))
+        chi2 = np.empty(N)
+        processed = np.empty(N, dtype=bool)
+        joseph_update(self.x, np.ascontiguousarray(self.P), np.ascontiguousarray(H, dtype=float),
+                      np.ascontiguousarray(R, dtype=float), residual, does,
+                      self._no_gate if gate is None else gate, x_new, P_new, S, chi2, processed)
+        # P⁺ carries only the rounding asymmetry of one update: the next propagation step
+        # symmetrises it, so it never accumulates
+        if self._any_adaptive:
+            for i, aq in enumerate(self.adaptive_q):
+                if aq is not None and processed[i]:
+                    aq.add(self.t, x_new[i, 0:6] - self.x[i, 0:6])
+        self.x = x_new
+        self.P = P_new
+        return residual, S, chi2, processed
+
+    def _update_numpy(self, residual: np.ndarray, H: np.ndarray, R: np.ndarray, does: np.ndarray,
+                      gate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         n = self.layout.n
         x_prior = self.x.copy() if self._any_adaptive else self.x
-        residual = y[None, :] - h
         Mt = kalman.augmented_joint(self.x, self.P, H, R, residual)
         PX, res, S, chi2, processed = kalman.update(Mt, n, does, gate)
         processed = does if processed is None else processed
-        # P⁺ carries only the rounding asymmetry of one update: the next propagation step
-        # symmetrises it, so it never accumulates
         if processed.all():
             self.x = -PX[:, :, n]
-            self.P = PX[:, :, :n]
+            self.P = np.ascontiguousarray(PX[:, :, :n])
         elif processed.any():
             self.x[processed] = -PX[processed, :, n]
             self.P[processed] = PX[processed, :, :n]
