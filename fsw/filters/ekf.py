@@ -40,6 +40,7 @@ from fsw.filters.config import BankConfig, FilterConfig
 from fsw.models.environment import Environment
 from fsw.models.forces import ForceParameters, srp_coefficient
 from fsw.models.layout import StateLayout
+from fsw.kernels.count_start import count_start_from_leg
 from fsw.kernels.covariance_transition import covariance_transition
 from fsw.kernels.joseph_update import joseph_update
 from fsw.models.propagator import Propagator
@@ -277,6 +278,12 @@ class EKFStack:
         return self._clock
 
     @property
+    def state_sources(self) -> np.ndarray:
+        """(n,) int: the column of [r, v, q] that drives each state column (−1: none; the clock
+        and range bias) — :attr:`z_to_state` as an index map."""
+        return self._phi_source
+
+    @property
     def z_to_state(self) -> np.ndarray:
         """(6 + n_q, n): maps the dynamics sensitivity columns [r, v, q] onto state columns."""
         return self._z_to_state
@@ -300,14 +307,9 @@ class EKFStack:
         leg = self._last_leg
         if leg is not None and x is self.x and leg[1] == self.t == t and abs(leg[0] - (t - count_s)) < 1e-6:
             _, _, z0, z1, q_leg, Y = leg
-            inv = np.empty((x.shape[0], 6, 6))
-            inv[:, 0:3, 0:3] = Y[:, 3:6, 3:6].transpose(0, 2, 1)
-            inv[:, 0:3, 3:6] = -Y[:, 0:3, 3:6].transpose(0, 2, 1)
-            inv[:, 3:6, 0:3] = -Y[:, 3:6, 0:3].transpose(0, 2, 1)
-            inv[:, 3:6, 3:6] = Y[:, 0:3, 0:3].transpose(0, 2, 1)
-            Yb = np.concatenate([inv, -inv @ Y[:, :, 6:]], axis=2)
-            dz = np.concatenate([x[:, 0:6] - z1, self.drivers(x) - q_leg], axis=1)
-            z_start = z0 + np.matmul(Yb, dz[:, :, None])[:, :, 0]
+            z_start = np.empty((x.shape[0], 6))
+            Yb = np.empty_like(Y)
+            count_start_from_leg(Y, z0, z1, np.ascontiguousarray(x[:, 0:6]), self.drivers(x), q_leg, z_start, Yb)
             return z_start[:, 0:3], z_start[:, 3:6], Yb
         return self.propagator.propagate(t, t - count_s, x[:, 0:3], x[:, 3:6], self.drivers(x))
 
