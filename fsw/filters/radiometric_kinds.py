@@ -55,7 +55,10 @@ def predict_doppler(stack: EKFStack, station: str, t: float, count_s: float,
     delta = np.ascontiguousarray(stack.clock_state(x, 0))
     r_s, v_s, Yb = stack.count_start(t, count_s, x)
     # both ends of the count in one light-time solution: [end, start]
-    g = uplinks(stack.env, station, (t, t - count_s), np.stack([x[:, 0:3], r_s]), np.stack([x[:, 3:6], v_s]), delta)
+    r = np.empty((2, N, 3))
+    v = np.empty((2, N, 3))
+    r[0], r[1], v[0], v[1] = x[:, 0:3], r_s, x[:, 3:6], v_s
+    g = uplinks(stack.env, station, (t, t - count_s), r, v, delta)
     c0, c1 = stack.clock_columns or (0, 0)
     h = np.empty((N, 1))
     H = np.empty((N, 1, n))

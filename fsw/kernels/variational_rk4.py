@@ -199,12 +199,17 @@ def _frozen_gradient_step(Y, h, G, B0, Bm, B1):
       "float64[:, :, ::1], float64, float64, float64[::1], float64[:, :, ::1])", cache=True)
 def rk4_variational(t0, t1, z, q, with_stm, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin,
                     kappa, max_step, frozen_tol, tab_p, tab_v, tab_t0, tab_step, gm, Y):
-    """Propagate z = [r, v] (N, 6) and Y = ∂z/∂[z0, q] (N, 6, 6 + n_q), both in place, from t0 to
-    t1 (either direction) with drivers q (N, n_q); ``deg`` −1 without the polynomial; ``gm``
-    [μ_Mars, μ_Sun, μ_EMB, μ_Jupiter]. Returns the number of steps taken."""
+    """Propagate z = [r, v] (N, 6) in place from t0 to t1 (either direction) with drivers q
+    (N, n_q), and write Y = ∂z(t1)/∂[z(t0), q] (N, 6, 6 + n_q) (starting from [I | 0]);
+    ``deg`` −1 without the polynomial; ``gm`` [μ_Mars, μ_Sun, μ_EMB, μ_Jupiter]. Returns the
+    number of steps taken."""
     N = z.shape[0]
     nq = q.shape[1]
     m = 6 + nq
+    Y[:] = 0.0
+    for i in range(N):
+        for j in range(6):
+            Y[i, j, j] = 1.0
     total = t1 - t0
     if total == 0.0:
         return 0

@@ -51,6 +51,7 @@ class Propagator:
         self._acs_body = np.ascontiguousarray(params.acs_body, dtype=float)
         self._poly_batch = np.ascontiguousarray(params.poly_batch_s, dtype=float)
         self._deg = -1 if params.poly_degree is None else int(params.poly_degree)
+        self._poly_origin = float(params.poly_origin_s)
 
     @overload
     def propagate(
@@ -82,19 +83,11 @@ class Propagator:
         relative in Φ and in Ψ (checked against DOP853 on the variational equations in the
         tests) — for ~40 % of the step's cost.
         """
-        N = r.shape[0]
-        z = np.empty((N, 6))
-        z[:, 0:3] = r
-        z[:, 3:6] = v
-        nq = q.shape[1]
-        Y = np.zeros((N, 6, 6 + nq))
-        for i in range(6):
-            Y[:, i, i] = 1.0
-        t0, t1 = float(t0), float(t1)
-        if t1 != t0:
-            p_tab, v_tab, tab_t0, tab_step = self.env.table_nodes(min(t0, t1), max(t0, t1))
-            rk4_variational(t0, t1, z, np.ascontiguousarray(q, dtype=float), bool(with_stm), self._srp,
-                            self._acs_nominal, self._acs_body, self._deg, self._poly_batch,
-                            float(self.params.poly_origin_s), float(self.kappa), float(self.max_step),
-                            float(self.frozen_gradient_tol), p_tab, v_tab, tab_t0, tab_step, _GM, Y)
-        return z[:, 0:3].copy(), z[:, 3:6].copy(), Y if with_stm else None
+        z = np.concatenate((r, v), axis=1)
+        Y = np.empty((r.shape[0], 6, 6 + q.shape[1]))
+        lo, hi = (t0, t1) if t0 <= t1 else (t1, t0)
+        p_tab, v_tab, tab_t0, tab_step = self.env.table_nodes(lo, hi)
+        rk4_variational(t0, t1, z, q if q.flags.c_contiguous else np.ascontiguousarray(q), with_stm, self._srp,
+                        self._acs_nominal, self._acs_body, self._deg, self._poly_batch, self._poly_origin,
+                        self.kappa, self.max_step, self.frozen_gradient_tol, p_tab, v_tab, tab_t0, tab_step, _GM, Y)
+        return z[:, 0:3], z[:, 3:6], Y if with_stm else None

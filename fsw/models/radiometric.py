@@ -70,19 +70,21 @@ def uplinks(env: Environment, station: str, t_tags: Iterable[float], r: np.ndarr
     station is taken from the one grid node nearest the first t_g, so every filter uses one
     expansion.
     """
-    tt = np.array([float(t) for t in t_tags])
+    ts = [float(t) for t in t_tags]
+    tt = np.array(ts)
     K = tt.shape[0]
     N = delta.shape[0]
     r = np.ascontiguousarray(r, dtype=float)
     v = np.ascontiguousarray(v, dtype=float)
     delta = np.ascontiguousarray(delta, dtype=float)
-    herm, t_first, step = env.hermite_nodes(float(tt.min()) - 1.0, float(tt.max()) + 1.0)
+    herm, t_first, step = env.hermite_nodes(min(ts) - 1.0, max(ts) + 1.0)
     r_sc = np.empty((K, N, 3))
     v_mars = np.empty((K, 3))
     t_g = np.empty(K)
     uplink_reception(tt, r, v, delta, herm, t_first, step, C_KM_S, r_sc, v_mars, t_g)
-    herm, t_first, step = env.hermite_nodes(float(t_g.min()) - 1.0, float(t_g.max()) + 1.0)
-    node, t_grid = env.station_node(station, float(t_g[0]))
+    tg = t_g.tolist()
+    herm, t_first, step = env.hermite_nodes(min(tg) - 1.0, max(tg) + 1.0)
+    node, t_grid = env.station_node(station, tg[0])
     rho = np.empty((K, N))
     ku = np.empty((K, N, 3))
     d_rho_d_delta = np.empty((K, N))
