@@ -216,7 +216,8 @@ class EKFStack:
             if c1 - c0 > 2:
                 x_new[:, c0 + 1] += h * x[:, c0 + 2]
         P = np.empty_like(self.P)
-        covariance_transition(np.ascontiguousarray(self.P), Y, self._phi_source, c0, c1, h, self.clock_q, self.snc_psd, P)
+        P_prior = self.P if self.P.flags.c_contiguous else np.ascontiguousarray(self.P)
+        covariance_transition(P_prior, Y, self._phi_source, c0, c1, h, self.clock_q, self.snc_psd, P)
         self._last_leg = (self.t, t1, x[:, 0:6].copy(), x_new[:, 0:6].copy(), q, Y)
         self.x = x_new
         self.P = P
@@ -342,8 +343,9 @@ class EKFStack:
         S = np.empty((N, m, m))
         chi2 = np.empty(N)
         processed = np.empty(N, dtype=bool)
-        joseph_update(self.x, np.ascontiguousarray(self.P), np.ascontiguousarray(H, dtype=float),
-                      np.ascontiguousarray(R, dtype=float), residual, does,
+        P = self.P if self.P.flags.c_contiguous else np.ascontiguousarray(self.P)
+        joseph_update(self.x, P, H if H.flags.c_contiguous else np.ascontiguousarray(H),
+                      R if R.flags.c_contiguous else np.ascontiguousarray(R), residual, does,
                       self._no_gate if gate is None else gate, x_new, P_new, S, chi2, processed)
         # P⁺ carries only the rounding asymmetry of one update: the next propagation step
         # symmetrises it, so it never accumulates

@@ -78,7 +78,7 @@ def doppler_clock_variance(stack: EKFStack, count_s: float) -> np.ndarray:
     (the Allan variance at τ = T of those two noises; 0.018 mm/s for a DSAC-class clock at
     60 s). Filters without clock states model no clock noise here."""
     q = stack.clock_q
-    return C_KM_S**2 * (q[:, 0] / count_s + q[:, 1] * count_s / 3.0)
+    return (C_KM_S**2 / count_s) * q[:, 0] + (C_KM_S**2 * count_s / 3.0) * q[:, 1]
 
 
 def _check_station(meas: Measurement, env: Environment) -> None:
