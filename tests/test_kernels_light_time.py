@@ -42,7 +42,7 @@ def test_prefetched_station_nodes_equal_one_node_evaluation():
     env = Environment()
     t_grid = 600.0 * round(T0 / 600.0)
     env.station_node("DSS-43", t_grid)  # one miss fills the next nodes
-    for j in range(8):
+    for j in range(24):
         tj = t_grid + 600.0 * j
         node, t_node = env.station_node("DSS-43", tj + 100.0)
         assert t_node == tj

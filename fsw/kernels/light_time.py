@@ -74,10 +74,10 @@ def uplink_reception(t_tags, r, v, delta, herm, t_first, step, c_km_s, r_sc, v_m
 
 @njit("void(float64[::1], float64[::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, ::1], float64[::1], "
       "float64[:, :, ::1], float64, float64, float64[:, ::1], float64, float64, float64, float64, int64, "
-      "float64[:, ::1], float64[:, :, ::1], float64[:, ::1])", cache=True)
+      "float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, ::1])", cache=True)
 def uplink_light_time(t_tags, t_g, r_sc, v, v_mars, delta, herm, t_first, step, node, t_grid, omega, gm_sun,
-                      c_km_s, iterations, rho, ku, d_rho_d_delta):
-    """ρ (K, N), k u (K, N, 3) and ∂ρ/∂δ (K, N) of the uplinks whose reception is r_sc (K, N, 3)
+                      c_km_s, iterations, rho, ku, d_rho_d_v, d_rho_d_delta):
+    """ρ (K, N), ∂ρ/∂r = k u, ∂ρ/∂v = −δ k u (K, N, 3) and ∂ρ/∂δ (K, N) of the uplinks whose reception is r_sc (K, N, 3)
     with reference transmit epochs t_g (K,); ``node`` (4, 3) is the station's grid node
     [r0, k × r0, k (k·r0), dv] at t_grid (Rodrigues: r(Δt) = r0 cos θ + (k × r0) sin θ
     + k (k·r0)(1 − cos θ) + dv Δt, θ = ω Δt, and its exact rate)."""
@@ -136,6 +136,7 @@ def uplink_light_time(t_tags, t_g, r_sc, v, v_mars, delta, herm, t_first, step, 
             for j in range(3):
                 kuj = kk * (D[j] / rr)
                 ku[k, i, j] = kuj
+                d_rho_d_v[k, i, j] = -delta[i] * kuj
                 dd += kuj * (v[k, i, j] + v_mars[k, j] - (V0[j] + (2.0 * A0[j]) * dt))
             rho[k, i] = rr
             d_rho_d_delta[k, i] = -dd

@@ -43,8 +43,8 @@ SUN, EMB, JUPITER, EARTH, MARS = range(5)
 OPTICAL_TARGETS: tuple[str, ...] = ("mars", *MOONS, *asteroids.NAMES)
 
 _STATION_GRID_S = 600.0
-#: Station nodes evaluated together on a cache miss (80 minutes of a pass).
-_STATION_PREFETCH = 8
+#: Station nodes evaluated together on a cache miss (four hours of a pass).
+_STATION_PREFETCH = 24
 
 
 class Environment:

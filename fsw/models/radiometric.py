@@ -87,10 +87,11 @@ def uplinks(env: Environment, station: str, t_tags: Iterable[float], r: np.ndarr
     node, t_grid = env.station_node(station, tg[0])
     rho = np.empty((K, N))
     ku = np.empty((K, N, 3))
+    d_rho_d_v = np.empty((K, N, 3))
     d_rho_d_delta = np.empty((K, N))
     uplink_light_time(tt, t_g, r_sc, v, v_mars, delta, herm, t_first, step, node, t_grid, OMEGA_EARTH_RAD_S,
-                      GM_SUN, C_KM_S, iterations, rho, ku, d_rho_d_delta)
-    return UplinkGeometry(rho=rho, d_rho_d_r=ku, d_rho_d_v=-delta[:, None] * ku, d_rho_d_delta=d_rho_d_delta)
+                      GM_SUN, C_KM_S, iterations, rho, ku, d_rho_d_v, d_rho_d_delta)
+    return UplinkGeometry(rho=rho, d_rho_d_r=ku, d_rho_d_v=d_rho_d_v, d_rho_d_delta=d_rho_d_delta)
 
 
 def uplink(env: Environment, station: str, t_tag: float, r: np.ndarray, v: np.ndarray, delta: np.ndarray,
