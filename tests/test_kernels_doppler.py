@@ -51,7 +51,9 @@ def test_doppler_kernel_matches_numpy(seed):
     delta, freq, drift = rng.normal(size=N) * 1e-6, rng.normal(size=N) * 1e-12, rng.normal(size=N) * 1e-18
     Yb = rng.normal(size=(N, 6, 6 + nq))
     h, H = np.empty((N, 1)), np.empty((N, 1, n))
-    doppler_prediction(rho, ku, d_rho_d_delta, delta, Yb, src, freq, drift, T, c0, c1, C_KM_S, h, H)
+    x = rng.normal(size=(N, n))
+    x[:, c0], x[:, c0 + 1], x[:, c0 + 2] = delta, freq, drift
+    doppler_prediction(rho, ku, d_rho_d_delta, delta, Yb, src, x, T, c0, c1, C_KM_S, h, H)
 
     h_ref = (rho[0] - rho[1]) / T + C_KM_S * (freq - 0.5 * drift * T)
     g_start = np.concatenate([ku[1], -delta[:, None] * ku[1]], axis=1)

@@ -75,8 +75,8 @@ def _reference_covariance_transition(st: EKFStack, P: np.ndarray, Y: np.ndarray,
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_covariance_transition_kernel_matches_dense_products(seed):
-    from fsw.kernels.covariance_transition import covariance_transition
+def test_time_update_kernel_matches_dense_products(seed):
+    from fsw.kernels.time_update import time_update
 
     rng = np.random.default_rng(seed)
     st = _stack(poly=bool(seed % 2))
@@ -88,8 +88,18 @@ def test_covariance_transition_kernel_matches_dense_products(seed):
     h = float(rng.uniform(10.0, 600.0))
     out = np.empty_like(P)
     c0, c1 = st.clock_columns or (0, 0)
-    covariance_transition(P, Y, st._phi_source, c0, c1, h, st.clock_q, st.snc_psd, out)
+    x = rng.normal(size=(N, n)) * np.sqrt(np.diag(st.P[0]))
+    z1 = rng.normal(size=(N, 6))
+    x_out = np.empty_like(x)
+    time_update(x, z1, P, Y, st.state_sources, c0, c1, h, st.clock_q, st.snc_psd, x_out, out)
     ref = _reference_covariance_transition(st, P, Y, h)
+    x_ref = x.copy()
+    x_ref[:, 0:6] = z1
+    if st.clock_columns is not None:
+        from fsw.models.clock import clock_transition
+
+        x_ref[:, c0:c1] = x[:, c0:c1] @ clock_transition(h, c1 - c0).T
+    assert np.allclose(x_out, x_ref, rtol=1e-15, atol=0.0)
     d = np.sqrt(np.abs(np.einsum("kii->ki", ref)))
     assert np.max(np.abs(out - ref) / (d[:, :, None] * d[:, None, :] + 1e-300)) < 1e-13
     assert np.array_equal(out, out.transpose(0, 2, 1))

@@ -41,7 +41,7 @@ from fsw.models.environment import Environment
 from fsw.models.forces import ForceParameters, srp_coefficient
 from fsw.models.layout import StateLayout
 from fsw.kernels.count_start import count_start_from_leg
-from fsw.kernels.covariance_transition import covariance_transition
+from fsw.kernels.time_update import time_update
 from fsw.kernels.joseph_update import joseph_update
 from fsw.models.propagator import Propagator
 from fsw.models.stochastic import apply_ecrv_step, batch_boundaries, ecrv_factors
@@ -207,18 +207,14 @@ class EKFStack:
         x = self.x
         q = self.drivers()
         r1, v1, Y = self.propagator.propagate(self.t, t1, x[:, 0:3], x[:, 3:6], q)
-        x_new = x.copy()
-        x_new[:, 0:3] = r1
-        x_new[:, 3:6] = v1
+        z1 = np.concatenate((r1, v1), axis=1)
         c0, c1 = self._clock if self._clock is not None else (0, 0)
-        if c1 - c0 > 1:  # phase += h f (+ h²/2 a), frequency += h a
-            x_new[:, c0] += h * x[:, c0 + 1] + (0.5 * h * h * x[:, c0 + 2] if c1 - c0 > 2 else 0.0)
-            if c1 - c0 > 2:
-                x_new[:, c0 + 1] += h * x[:, c0 + 2]
-        P = np.empty_like(self.P)
+        x_new = np.empty(x.shape)
+        P = np.empty(self.P.shape)
         P_prior = self.P if self.P.flags.c_contiguous else np.ascontiguousarray(self.P)
-        covariance_transition(P_prior, Y, self._phi_source, c0, c1, h, self.clock_q, self.snc_psd, P)
-        self._last_leg = (self.t, t1, x[:, 0:6].copy(), x_new[:, 0:6].copy(), q, Y)
+        time_update(x if x.flags.c_contiguous else np.ascontiguousarray(x), z1, P_prior, Y, self._phi_source, c0, c1,
+                    h, self.clock_q, self.snc_psd, x_new, P)
+        self._last_leg = (self.t, t1, x[:, 0:6].copy(), z1, q, Y)
         self.x = x_new
         self.P = P
         self.t = t1

@@ -62,9 +62,8 @@ def predict_doppler(stack: EKFStack, station: str, t: float, count_s: float,
     c0, c1 = stack.clock_columns or (0, 0)
     h = np.empty((N, 1))
     H = np.empty((N, 1, n))
-    doppler_prediction(g.rho, g.d_rho_d_r, g.d_rho_d_delta, delta, np.ascontiguousarray(Yb), stack.state_sources,
-                       np.ascontiguousarray(stack.clock_state(x, 1)), np.ascontiguousarray(stack.clock_state(x, 2)),
-                       float(count_s), c0, c1, C_KM_S, h, H)
+    doppler_prediction(g.rho, g.d_rho_d_r, g.d_rho_d_delta, delta, Yb if Yb.flags.c_contiguous else np.ascontiguousarray(Yb),
+                       stack.state_sources, x, float(count_s), c0, c1, C_KM_S, h, H)
     return h, H
 
 

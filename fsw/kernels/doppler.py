@@ -23,16 +23,19 @@ configure_cache_dir()
 
 
 @njit("void(float64[:, ::1], float64[:, :, ::1], float64[:, ::1], float64[::1], float64[:, :, ::1], "
-      "int64[::1], float64[::1], float64[::1], float64, int64, int64, float64, float64[:, ::1], float64[:, :, ::1])",
+      "int64[::1], float64[:, :], float64, int64, int64, float64, float64[:, ::1], float64[:, :, ::1])",
       cache=True)
-def doppler_prediction(rho, ku, d_rho_d_delta, delta, Yb, src, freq, drift, count_s, c0, c1, c_km_s, h, H):
+def doppler_prediction(rho, ku, d_rho_d_delta, delta, Yb, src, x, count_s, c0, c1, c_km_s, h, H):
     """h (N, 1), H (N, 1, n) from ρ, k u, ∂ρ/∂δ at [end, start] ((2, N), (2, N, 3), (2, N)),
-    the clock phase δ, frequency f and drift a (N,), Yb (N, 6, 6 + n_q), and ``src`` (n,) the
-    [r, v, q] column feeding each state column (−1: none); the clock block is [c0, c1)."""
+    the clock phase δ (N,), Yb (N, 6, 6 + n_q), ``src`` (n,) the [r, v, q] column feeding each
+    state column (−1: none) and the states x (N, n), whose clock block [c0, c1) holds phase,
+    frequency f and drift a (absent components: 0)."""
     N = rho.shape[1]
     n = src.shape[0]
     for i in range(N):
-        h[i, 0] = (rho[0, i] - rho[1, i]) / count_s + c_km_s * (freq[i] - 0.5 * drift[i] * count_s)
+        freq = x[i, c0 + 1] if c1 - c0 > 1 else 0.0
+        drift = x[i, c0 + 2] if c1 - c0 > 2 else 0.0
+        h[i, 0] = (rho[0, i] - rho[1, i]) / count_s + c_km_s * (freq - 0.5 * drift * count_s)
         d0 = -delta[i]
         for col in range(n):
             j = src[col]

@@ -1,4 +1,4 @@
-"""Compiled kernel: the covariance time update P ← sym(Φ P Φᵀ + Q) of N filters, by Φ's blocks.
+"""Compiled kernel: the EKF time update x ← Φ(x), P ← sym(Φ P Φᵀ + Q) of N filters, by Φ's blocks.
 
 Φ over the bank's union state (:meth:`fsw.filters.ekf.EKFStack.transition`) has three kinds of
 rows: the six dynamics rows [Y_z | Y_q mapped onto the parameter columns] (Y the variational
@@ -14,6 +14,9 @@ Q: the clock's exact discrete process noise (:mod:`fsw.models.clock`)
 and the white acceleration noise on the velocity (SNC: Q_rr = q h³/3, Q_rv = q h²/2,
 Q_vv = q h). The result is symmetrised, (M + Mᵀ)/2, so the rounding asymmetry of the products
 never accumulates.
+
+The state: [r, v] is the propagated trajectory, the clock block steps by Φ_c, the other
+parameters are constant over the interval.
 """
 
 from __future__ import annotations
@@ -47,14 +50,23 @@ def _row_of_phi(i, r, Y, src, c0, c1, h, row):
         row[r] = 1.0
 
 
-@njit("void(float64[:, :, ::1], float64[:, :, ::1], int64[::1], int64, int64, float64, float64[:, ::1], "
-      "float64[::1], float64[:, :, ::1])", cache=True)
-def covariance_transition(P, Y, src, c0, c1, h, clock_q, snc, out):
-    """out = sym(Φ P Φᵀ + Q) for P (N, n, n) and Y (N, 6, 6 + n_q); ``src`` (n,) gives the
+@njit("void(float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], int64[::1], int64, int64, "
+      "float64, float64[:, ::1], float64[::1], float64[:, ::1], float64[:, :, ::1])", cache=True)
+def time_update(x, z1, P, Y, src, c0, c1, h, clock_q, snc, x_out, out):
+    """x_out = [z1, Φ(x) of the parameters] and out = sym(Φ P Φᵀ + Q) for x (N, n), the
+    propagated [r, v] z1 (N, 6), P (N, n, n) and Y (N, 6, 6 + n_q); ``src`` (n,) gives the
     column of Y that feeds each state column of the dynamics rows (−1: none); the clock block
     is [c0, c1) (c0 = c1: no clock); ``clock_q`` (N, 3) the clock's q1, q2, q3, ``snc`` (N,)
     the SNC spectral density."""
     N, n, _ = P.shape
+    for i in range(N):
+        for a in range(n):
+            x_out[i, a] = z1[i, a] if a < 6 else x[i, a]
+        k = c1 - c0
+        if k > 1:  # phase += h f (+ h²/2 a), frequency += h a
+            x_out[i, c0] = x[i, c0] + h * x[i, c0 + 1] + (0.5 * h * h * x[i, c0 + 2] if k > 2 else 0.0)
+            if k > 2:
+                x_out[i, c0 + 1] = x[i, c0 + 1] + h * x[i, c0 + 2]
     A = np.empty((n, n))  # Φ P
     rows = np.empty((n, n))  # Φ, row by row
     for i in range(N):
