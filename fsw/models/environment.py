@@ -59,6 +59,7 @@ class Environment:
         self._hermite: np.ndarray = np.empty((0, 4, 15))
         self._stations: OrderedDict[tuple[str, float], tuple[np.ndarray, ...]] = OrderedDict()
         self._station_arrays: dict[tuple[str, float], np.ndarray] = {}
+        self._station_names: dict[str, str] = {}  # spellings seen -> canonical name
 
     # -- planets --------------------------------------------------------------------------------
     def _table_for(self, t_lo: float, t_hi: float) -> EphemerisTable:
@@ -132,10 +133,14 @@ class Environment:
         return p[:3] - p[MARS]
 
     # -- stations -----------------------------------------------------------------------------
-    @staticmethod
-    def check_station(name: str) -> str:
+    def check_station(self, name: str) -> str:
         """Canonical station name; raises ``StationError`` for an unknown one."""
-        return station(name).name
+        known = self._station_names.get(name) if isinstance(name, str) else None
+        if known is None:
+            known = station(name).name
+            if len(self._station_names) < 64:
+                self._station_names[name] = known
+        return known
 
     def _station_node(self, name: str, t_grid: float) -> tuple[np.ndarray, ...]:
         """(r0, k × r0, k (k·r0), dv) of a station at a grid epoch; k is the celestial pole.
