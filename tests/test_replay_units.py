@@ -61,6 +61,19 @@ def test_weight_difference_is_the_largest_element_difference():
     assert td.identical(0.25) and not td.identical(0.1)
 
 
+def test_relative_tolerance_is_counted_leaf_by_leaf():
+    rec = [_weights((1e-3, 1.0 - 1e-3)), _weights((0.5, 0.5), t=6e8 + 1)]
+    new = [_weights((1e-3 * (1 + 4e-10), 1.0 - 1e-3)), _weights((0.5, 0.5 * (1 - 2e-9)), t=6e8 + 1)]
+    f = compare_messages("/fsw/weights/chi2", rec, new).fields["weights"]
+    assert f.max_rel == pytest.approx(2e-9, rel=1e-6) and f.worst_rel_index == 1
+    # 4e-10 and 2e-9 relative: within 3e-9, not within 1e-9 (only the second leaf is outside)
+    assert compare_messages("/fsw/weights/chi2", rec, new, rtol=3e-9).identical(0.0)
+    td = compare_messages("/fsw/weights/chi2", rec, new, rtol=1e-9)
+    assert not td.identical(0.0) and td.fields["weights"].outside == 1
+    # a leaf within the absolute tolerance passes whatever its relative difference
+    assert compare_messages("/fsw/weights/chi2", rec, new, tolerance=2e-9, rtol=1e-12).identical(2e-9)
+
+
 def test_anomaly_class_flag_and_onset_differences():
     rec = [_anomaly("none", False, None)]
     new = [_anomaly("optical-measurement", True, 6e8 - 3600.0)]

@@ -155,10 +155,11 @@ def itrs_to_gcrs_matrix(t_tdb, dut1_s: float | None = None) -> np.ndarray:
 def itrs_to_gcrs_state(r_itrs_km, t_tdb, dut1_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """GCRS position [km] and velocity [km/s] of a point fixed in the ITRS.
 
-    ``r_itrs_km`` is (3,); t scalar -> (3,) outputs, t (N,) -> (N, 3).
+    ``r_itrs_km`` is (3,) or, with t (N,), one point per epoch (N, 3); t scalar -> (3,)
+    outputs, t (N,) -> (N, 3).
     """
     t = np.asarray(t_tdb, dtype=float)
-    r = polar_motion_matrix(t, dut1_s) @ np.asarray(r_itrs_km, dtype=float)
+    r = np.matvec(polar_motion_matrix(t, dut1_s), np.asarray(r_itrs_km, dtype=float))
     theta = earth_rotation_angle(t, dut1_s)
     R = _r3_neg(theta)
     c, s = np.cos(theta), np.sin(theta)

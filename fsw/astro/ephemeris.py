@@ -176,6 +176,11 @@ class EphemerisTable:
         self._p = pos
         self._v = vel
 
+    @property
+    def nodes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Positions and velocities at the grid nodes (n, nb, 3), node k at t0 + k·step."""
+        return self._p, self._v
+
     def _locate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         _check_times(t)
         if t.size and (t.min() < self.t_first or t.max() > self.t_last):

@@ -96,6 +96,15 @@ def station_state_icrf(name: str, t_tdb, dut1_s: float | None = None) -> tuple[n
     return itrs_to_gcrs_state(st.itrs_at(float(np.min(t_tdb)) if np.size(t_tdb) else 0.0), t_tdb, dut1_s)
 
 
+def station_states_icrf(name: str, t_tdb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Geocentric ICRF (GCRS) positions [km] and velocities [km/s] (N, 3) at the epochs t_tdb (N,),
+    each with the plate motion of its own epoch (:func:`station_state_icrf` evaluated epoch by
+    epoch, in one vectorised call)."""
+    st = station(name)
+    t = np.asarray(t_tdb, dtype=float)
+    return itrs_to_gcrs_state(st.itrs_at(t), t)
+
+
 def station_state_mars(
     name: str, t_tdb, ephemeris: EphemerisSource | None = None, dut1_s: float | None = None
 ) -> tuple[np.ndarray, np.ndarray]:

@@ -37,15 +37,14 @@ from numpy.typing import ArrayLike
 from fsw.filters import kalman
 from fsw.filters.adaptive_q import AdaptiveQ
 from fsw.filters.config import BankConfig, FilterConfig
-from fsw.models.clock import clock_process_noise, clock_transition
 from fsw.models.environment import Environment
 from fsw.models.forces import ForceParameters, srp_coefficient
 from fsw.models.layout import StateLayout
+from fsw.kernels.count_start import count_start_from_leg
+from fsw.kernels.time_update import time_update
+from fsw.kernels.joseph_update import joseph_update
 from fsw.models.propagator import Propagator
 from fsw.models.stochastic import apply_ecrv_step, batch_boundaries, ecrv_factors
-
-_EYE3 = np.eye(3)
-
 
 def union_layout(filters: tuple[FilterConfig, ...]) -> StateLayout:
     srp = any(f.srp.scale.bias_sigma > 0 or f.srp.scale.temporal_sigma > 0 for f in filters)
@@ -156,8 +155,11 @@ class EKFStack:
             self._z_to_state[6 + qi, col] = 1.0
             self._state_to_q[col, qi] = 1.0
         self._clock = (L.slices["clock"].start, L.slices["clock"].stop) if L.has("clock") else None
-        self._phi_template = np.zeros((N, n, n))
-        self._phi_template[:, np.arange(6, n), np.arange(6, n)] = 1.0
+        # the column of Y that feeds each state column of Φ's dynamics rows (−1: none)
+        self._phi_source = np.full(n, -1, dtype=np.int64)
+        self._phi_source[0:6] = np.arange(6)
+        for col, qi in self._q_cols:
+            self._phi_source[col] = 6 + qi
         self.batched: list[_Batched] = []
         if L.has("srp_stoch"):
             self.batched.append(_Batched(L.slices["srp_stoch"].start,
@@ -191,33 +193,12 @@ class EKFStack:
             AdaptiveQ(f.process_noise) if f.process_noise.mode != "fixed" else None for f in cfgs
         ]
         self._any_adaptive = any(aq is not None for aq in self.adaptive_q)
+        self._no_gate = np.full(N, np.inf)
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
         """Acceleration drivers q (N, n_q) of the state: SRP scale, ACS magnitude and tilts, polynomial."""
         return (self.x if x is None else x) @ self._state_to_q
-
-    def transition(self, Y: np.ndarray, h: float) -> np.ndarray:
-        """Full Φ (N, n, n) from the dynamics sensitivity Y (N, 6, 6 + n_q) over a step h."""
-        Phi = self._phi_template.copy()  # identity on the parameter rows
-        Phi[:, 0:6, :] = Y @ self._z_to_state
-        if self._clock is not None:
-            c0, c1 = self._clock
-            Phi[:, c0:c1, c0:c1] = clock_transition(h, c1 - c0)
-        return Phi
-
-    def _add_process_noise(self, P: np.ndarray, h: float) -> None:
-        """P += Q over a step h: clock noise and the optional white acceleration (SNC)."""
-        dt = abs(h)
-        if self._clock is not None:
-            c0, c1 = self._clock
-            P[:, c0:c1, c0:c1] += clock_process_noise(dt, self.clock_q)[:, : c1 - c0, : c1 - c0]
-        if self.snc_psd.any():
-            q = self.snc_psd[:, None, None]
-            P[:, 0:3, 0:3] += (q * dt**3 / 3.0) * _EYE3
-            P[:, 0:3, 3:6] += (q * dt**2 / 2.0) * _EYE3
-            P[:, 3:6, 0:3] += (q * dt**2 / 2.0) * _EYE3
-            P[:, 3:6, 3:6] += (q * dt) * _EYE3
 
     def _propagate_interval(self, t1: float) -> None:
         h = t1 - self.t
@@ -226,18 +207,16 @@ class EKFStack:
         x = self.x
         q = self.drivers()
         r1, v1, Y = self.propagator.propagate(self.t, t1, x[:, 0:3], x[:, 3:6], q)
-        Phi = self.transition(Y, h)
-        x_new = x.copy()
-        x_new[:, 0:3] = r1
-        x_new[:, 3:6] = v1
-        if self._clock is not None:
-            c0, c1 = self._clock
-            x_new[:, c0:c1] = np.matmul(Phi[:, c0:c1, c0:c1], x[:, c0:c1, None])[:, :, 0]
-        P = Phi @ self.P @ Phi.transpose(0, 2, 1)
-        self._add_process_noise(P, h)
-        self._last_leg = (self.t, t1, x[:, 0:6].copy(), x_new[:, 0:6].copy(), q, Y)
+        z1 = np.concatenate((r1, v1), axis=1)
+        c0, c1 = self._clock if self._clock is not None else (0, 0)
+        x_new = np.empty(x.shape)
+        P = np.empty(self.P.shape)
+        P_prior = self.P if self.P.flags.c_contiguous else np.ascontiguousarray(self.P)
+        time_update(x if x.flags.c_contiguous else np.ascontiguousarray(x), z1, P_prior, Y, self._phi_source, c0, c1,
+                    h, self.clock_q, self.snc_psd, x_new, P)
+        self._last_leg = (self.t, t1, x[:, 0:6].copy(), z1, q, Y)
         self.x = x_new
-        self.P = kalman.symmetrise(P)
+        self.P = P
         self.t = t1
 
     def _events(self, t1: float) -> list[float]:
@@ -296,6 +275,12 @@ class EKFStack:
         return self._clock
 
     @property
+    def state_sources(self) -> np.ndarray:
+        """(n,) int: the column of [r, v, q] that drives each state column (−1: none; the clock
+        and range bias) — :attr:`z_to_state` as an index map."""
+        return self._phi_source
+
+    @property
     def z_to_state(self) -> np.ndarray:
         """(6 + n_q, n): maps the dynamics sensitivity columns [r, v, q] onto state columns."""
         return self._z_to_state
@@ -319,14 +304,9 @@ class EKFStack:
         leg = self._last_leg
         if leg is not None and x is self.x and leg[1] == self.t == t and abs(leg[0] - (t - count_s)) < 1e-6:
             _, _, z0, z1, q_leg, Y = leg
-            inv = np.empty((x.shape[0], 6, 6))
-            inv[:, 0:3, 0:3] = Y[:, 3:6, 3:6].transpose(0, 2, 1)
-            inv[:, 0:3, 3:6] = -Y[:, 0:3, 3:6].transpose(0, 2, 1)
-            inv[:, 3:6, 0:3] = -Y[:, 3:6, 0:3].transpose(0, 2, 1)
-            inv[:, 3:6, 3:6] = Y[:, 0:3, 0:3].transpose(0, 2, 1)
-            Yb = np.concatenate([inv, -inv @ Y[:, :, 6:]], axis=2)
-            dz = np.concatenate([x[:, 0:6] - z1, self.drivers(x) - q_leg], axis=1)
-            z_start = z0 + np.matmul(Yb, dz[:, :, None])[:, :, 0]
+            z_start = np.empty((x.shape[0], 6))
+            Yb = np.empty_like(Y)
+            count_start_from_leg(Y, z0, z1, np.ascontiguousarray(x[:, 0:6]), self.drivers(x), q_leg, z_start, Yb)
             return z_start[:, 0:3], z_start[:, 3:6], Yb
         return self.propagator.propagate(t, t - count_s, x[:, 0:3], x[:, 3:6], self.drivers(x))
 
@@ -345,18 +325,44 @@ class EKFStack:
     # -- update ---------------------------------------------------------------------------------
     def update(self, y: np.ndarray, h: np.ndarray, H: np.ndarray, R: np.ndarray, does: np.ndarray,
                gate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Joseph-form update of every filter where ``does``; returns (residual, S, chi2, processed)."""
+        """Joseph-form update of every filter where ``does``; returns (residual, S, chi2, processed).
+
+        m ≤ 2 (every kind but a general vector measurement) runs the compiled kernel
+        (:mod:`fsw.kernels.joseph_update`), larger m :func:`kalman.update`: the same arithmetic."""
+        N, n = self.x.shape
+        m = H.shape[1]
+        residual = y[None, :] - h
+        if m > 2:
+            return self._update_numpy(residual, H, R, does, gate)
+        x_new = np.empty((N, n))
+        P_new = np.empty((N, n, n))
+        S = np.empty((N, m, m))
+        chi2 = np.empty(N)
+        processed = np.empty(N, dtype=bool)
+        P = self.P if self.P.flags.c_contiguous else np.ascontiguousarray(self.P)
+        joseph_update(self.x, P, H if H.flags.c_contiguous else np.ascontiguousarray(H),
+                      R if R.flags.c_contiguous else np.ascontiguousarray(R), residual, does,
+                      self._no_gate if gate is None else gate, x_new, P_new, S, chi2, processed)
+        # P⁺ carries only the rounding asymmetry of one update: the next propagation step
+        # symmetrises it, so it never accumulates
+        if self._any_adaptive:
+            for i, aq in enumerate(self.adaptive_q):
+                if aq is not None and processed[i]:
+                    aq.add(self.t, x_new[i, 0:6] - self.x[i, 0:6])
+        self.x = x_new
+        self.P = P_new
+        return residual, S, chi2, processed
+
+    def _update_numpy(self, residual: np.ndarray, H: np.ndarray, R: np.ndarray, does: np.ndarray,
+                      gate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         n = self.layout.n
         x_prior = self.x.copy() if self._any_adaptive else self.x
-        residual = y[None, :] - h
         Mt = kalman.augmented_joint(self.x, self.P, H, R, residual)
         PX, res, S, chi2, processed = kalman.update(Mt, n, does, gate)
         processed = does if processed is None else processed
-        # P⁺ carries only the rounding asymmetry of one update: the next propagation step
-        # symmetrises it, so it never accumulates
         if processed.all():
             self.x = -PX[:, :, n]
-            self.P = PX[:, :, :n]
+            self.P = np.ascontiguousarray(PX[:, :, :n])
         elif processed.any():
             self.x[processed] = -PX[processed, :, n]
             self.P[processed] = PX[processed, :, :n]

@@ -19,6 +19,9 @@ The rounding of that congruence is relative to ‖M‖ ≥ ‖P̄‖, though. Wh
 many orders of magnitude stronger than the prior, P⁺ is that much smaller than P̄ and the
 rounding swamps it; :func:`update_explicit`, the linear bank's update, forms the Joseph
 products so that their rounding is relative to P⁺'s own terms (numbers there).
+
+The EKF bank runs :func:`update`'s arithmetic compiled (:mod:`fsw.kernels.joseph_update`, for
+measurements of one or two components); :func:`update` is its reference and serves larger m.
 """
 
 from __future__ import annotations

@@ -20,6 +20,7 @@ from fsw.filters.errors import MeasurementRejected
 from fsw.interface import kinds
 from fsw.interface.messages import Measurement
 from fsw.models.environment import Environment
+from fsw.kernels.doppler import doppler_prediction
 from fsw.models.radiometric import uplink, uplinks
 
 if TYPE_CHECKING:
@@ -48,33 +49,22 @@ def predict_range(stack: EKFStack, station: str, t: float, x: np.ndarray) -> tup
 def predict_doppler(stack: EKFStack, station: str, t: float, count_s: float,
                     x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """h (N, 1) and H (N, 1, n) of one-way Doppler Δρ_g/T + c (f − a T/2) over the count
-    interval T ending at t."""
-    L = stack.layout
-    clock = stack.clock_columns
-    N = x.shape[0]
-    delta = stack.clock_state(x, 0)
-    freq = stack.clock_state(x, 1)
-    drift = stack.clock_state(x, 2)
+    interval T ending at t (the partials through the backward sensitivity of the count's start:
+    :func:`fsw.kernels.doppler.doppler_prediction`)."""
+    N, n = x.shape
+    delta = np.ascontiguousarray(stack.clock_state(x, 0))
     r_s, v_s, Yb = stack.count_start(t, count_s, x)
     # both ends of the count in one light-time solution: [end, start]
-    g = uplinks(stack.env, station, (t, t - count_s), np.stack([x[:, 0:3], r_s]), np.stack([x[:, 3:6], v_s]), delta)
-    h = (g.rho[0] - g.rho[1]) / count_s + C_KM_S * (freq - 0.5 * drift * count_s)
-    # start geometry through the backward sensitivity Yb = ∂[r, v]_start / ∂[r, v, q]_end
-    g_start = np.concatenate([g.d_rho_d_r[1], g.d_rho_d_v[1]], axis=1)  # (N, 6)
-    d_start = np.matmul(g_start[:, None, :], Yb)[:, 0, :]  # (N, 6 + n_q)
-    d_end = np.zeros((N, 6 + L.n_q))
-    d_end[:, 0:3] = g.d_rho_d_r[0]
-    d_end[:, 3:6] = g.d_rho_d_v[0]
-    H = ((d_end - d_start) / count_s) @ stack.z_to_state
-    if clock is not None:
-        c = clock[0]
-        k = clock[1] - c
-        H[:, c] = (g.d_rho_d_delta[0] - g.d_rho_d_delta[1]) / count_s
-        if k > 1:
-            H[:, c + 1] = C_KM_S
-        if k > 2:
-            H[:, c + 2] = -0.5 * C_KM_S * count_s
-    return h[:, None], H[:, None, :]
+    r = np.empty((2, N, 3))
+    v = np.empty((2, N, 3))
+    r[0], r[1], v[0], v[1] = x[:, 0:3], r_s, x[:, 3:6], v_s
+    g = uplinks(stack.env, station, (t, t - count_s), r, v, delta)
+    c0, c1 = stack.clock_columns or (0, 0)
+    h = np.empty((N, 1))
+    H = np.empty((N, 1, n))
+    doppler_prediction(g.rho, g.d_rho_d_r, g.d_rho_d_delta, delta, Yb if Yb.flags.c_contiguous else np.ascontiguousarray(Yb),
+                       stack.state_sources, x, float(count_s), c0, c1, C_KM_S, h, H)
+    return h, H
 
 
 def doppler_clock_variance(stack: EKFStack, count_s: float) -> np.ndarray:
@@ -87,7 +77,7 @@ def doppler_clock_variance(stack: EKFStack, count_s: float) -> np.ndarray:
     (the Allan variance at τ = T of those two noises; 0.018 mm/s for a DSAC-class clock at
     60 s). Filters without clock states model no clock noise here."""
     q = stack.clock_q
-    return C_KM_S**2 * (q[:, 0] / count_s + q[:, 1] * count_s / 3.0)
+    return (C_KM_S**2 / count_s) * q[:, 0] + (C_KM_S**2 * count_s / 3.0) * q[:, 1]
 
 
 def _check_station(meas: Measurement, env: Environment) -> None:

@@ -33,7 +33,7 @@ from fsw.astro.ephemeris import Ephemeris, EphemerisError, EphemerisTable, defau
 from fsw.astro import asteroids
 from fsw.astro.moons import MOONS, moon_state
 from fsw.astro.earth import itrs_to_gcrs_matrix
-from fsw.astro.stations import StationError, station, station_state_icrf
+from fsw.astro.stations import StationError, station, station_states_icrf
 from fsw.models.vector import cross
 
 #: Bodies of the table, in row order.
@@ -43,6 +43,8 @@ SUN, EMB, JUPITER, EARTH, MARS = range(5)
 OPTICAL_TARGETS: tuple[str, ...] = ("mars", *MOONS, *asteroids.NAMES)
 
 _STATION_GRID_S = 600.0
+#: Station nodes evaluated together on a cache miss (four hours of a pass).
+_STATION_PREFETCH = 24
 
 
 class Environment:
@@ -56,6 +58,8 @@ class Environment:
         # replaced, with the table, before any lookup
         self._hermite: np.ndarray = np.empty((0, 4, 15))
         self._stations: OrderedDict[tuple[str, float], tuple[np.ndarray, ...]] = OrderedDict()
+        self._station_arrays: dict[tuple[str, float], np.ndarray] = {}
+        self._station_names: dict[str, str] = {}  # spellings seen -> canonical name
 
     # -- planets --------------------------------------------------------------------------------
     def _table_for(self, t_lo: float, t_hi: float) -> EphemerisTable:
@@ -76,6 +80,13 @@ class Environment:
             nodes[:, 3] = tab.step * v[1:].reshape(n - 1, 15)
             self._hermite = nodes
         return tab
+
+    def table_nodes(self, t_lo: float, t_hi: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """The table covering [t_lo, t_hi] as the compiled kernels read it: SSB positions and
+        velocities at the nodes (n, 5, 3), the first node's epoch and the node step."""
+        tab = self._table_for(t_lo, t_hi)
+        p, v = tab.nodes
+        return p, v, tab.t0, tab.step
 
     def positions_ssb(self, t: float) -> np.ndarray:
         """(5, 3) SSB positions of TABLE_BODIES at one time [km]."""
@@ -122,26 +133,58 @@ class Environment:
         return p[:3] - p[MARS]
 
     # -- stations -----------------------------------------------------------------------------
-    @staticmethod
-    def check_station(name: str) -> str:
+    def check_station(self, name: str) -> str:
         """Canonical station name; raises ``StationError`` for an unknown one."""
-        return station(name).name
+        known = self._station_names.get(name) if isinstance(name, str) else None
+        if known is None:
+            known = station(name).name
+            if len(self._station_names) < 64:
+                self._station_names[name] = known
+        return known
 
     def _station_node(self, name: str, t_grid: float) -> tuple[np.ndarray, ...]:
-        """(r0, k × r0, k (k·r0), dv) of a station at a grid epoch; k is the celestial pole."""
+        """(r0, k × r0, k (k·r0), dv) of a station at a grid epoch; k is the celestial pole.
+
+        A miss evaluates the Earth-rotation chain for the next ``_STATION_PREFETCH`` nodes at
+        once (one vectorised call costs little more than one node; a pass walks the grid
+        forwards)."""
         key = (name, t_grid)
         hit = self._stations.get(key)
         if hit is None:
-            r0, v0 = station_state_icrf(name, t_grid)
-            k = itrs_to_gcrs_matrix(t_grid)[:, 2]
+            grid = t_grid + _STATION_GRID_S * np.arange(_STATION_PREFETCH)
+            r0, v0 = station_states_icrf(name, grid)
+            k = itrs_to_gcrs_matrix(grid)[:, :, 2]
             kxr = cross(k, r0)
+            kkr = k * np.vecdot(k, r0)[:, None]
             # what the rotation about k does not explain (pole motion, rate terms, ~1e-8 km/s)
             # is carried as a constant velocity
-            hit = (r0, kxr, k * float(k @ r0), v0 - OMEGA_EARTH_RAD_S * kxr)
-            self._stations[key] = hit
-            if len(self._stations) > 256:
-                self._stations.popitem(last=False)
+            dv = v0 - OMEGA_EARTH_RAD_S * kxr
+            for j, tj in enumerate(grid.tolist()):
+                node = (r0[j], kxr[j], kkr[j], dv[j])
+                self._stations[(name, tj)] = node
+                self._station_arrays[(name, tj)] = np.ascontiguousarray(np.stack(node))
+            while len(self._stations) > 256:
+                evicted, _ = self._stations.popitem(last=False)
+                self._station_arrays.pop(evicted, None)
+            hit = self._stations[key]
         return hit
+
+    def station_node(self, name: str, t_ref: float) -> tuple[np.ndarray, float]:
+        """The station's grid node nearest t_ref as a (4, 3) array [r0, k × r0, k (k·r0), dv]
+        and its epoch (what :meth:`station_gcrs` rotates; for the compiled light-time kernel)."""
+        t_grid = round(t_ref / _STATION_GRID_S) * _STATION_GRID_S
+        key = (name, t_grid)
+        node = self._station_arrays.get(key)
+        if node is None or key not in self._stations:
+            self._station_node(name, t_grid)
+            node = self._station_arrays[key]
+        return node, t_grid
+
+    def hermite_nodes(self, t_lo: float, t_hi: float) -> tuple[np.ndarray, float, float]:
+        """The table's Hermite nodes (intervals, 4, 15) covering [t_lo, t_hi], its first epoch and
+        step (what :meth:`states_many` multiplies; for the compiled light-time kernel)."""
+        tab = self._table_for(t_lo, t_hi)
+        return self._hermite, tab.t_first, tab.step
 
     def station_gcrs(self, name: str, t: np.ndarray, t_ref: float) -> tuple[np.ndarray, np.ndarray]:
         """Geocentric position and velocity of a station at times ``t_ref + t`` (offsets (k,)).

@@ -2,7 +2,9 @@
 
 Messages of a topic are paired in publication order (the recording is ordered by the publisher
 sequence number the logger stored). Each message is flattened to ``field -> value`` leaves:
-numbers and booleans (a flag counts as 0/1) give an absolute difference; strings and nulls
+numbers and booleans (a flag counts as 0/1) give an absolute difference and a relative one,
+|a − b| / max(|a|, |b|) (a number agrees within a tolerance T and a relative tolerance ρ when
+|a − b| ≤ T or |a − b| ≤ ρ max(|a|, |b|)); strings and nulls
 (an anomaly class, an absent onset time) give a mismatch when unequal; lists of different
 lengths or a value present on one side only give a structural mismatch. List indices are folded
 into the field name (``weights``, ``state``, ``sigma``), mapping keys are kept
@@ -36,11 +38,15 @@ class FieldDiff:
     """Worst difference of one field of one topic."""
 
     max_abs: float = 0.0
+    max_rel: float = 0.0  # largest |a − b| / max(|a|, |b|)
+    outside: int = 0  # numeric leaves outside both the tolerance and the relative tolerance
     compared: int = 0  # leaves compared
     mismatches: int = 0  # unequal strings/nulls, shape differences, one-sided values
     worst_index: int = -1  # message index of max_abs (or of the first mismatch)
     worst_t_s: float | None = None
     example: str = ""  # first mismatch, e.g. "'none' vs 'optical-measurement'"
+    worst_rel_index: int = -1  # message index of max_rel
+    worst_rel_t_s: float | None = None
 
 
 @dataclass
@@ -52,10 +58,15 @@ class TopicDiff:
     note: str = ""
     fields: dict[str, FieldDiff] = field(default_factory=dict)
     one_sided: set[str] = field(default_factory=set)  # status keys present on one side only
+    rtol: float = 0.0  # the relative tolerance ``outside`` was counted with (0: none)
 
     @property
     def max_abs(self) -> float:
         return max((f.max_abs for f in self.fields.values()), default=0.0)
+
+    @property
+    def max_rel(self) -> float:
+        return max((f.max_rel for f in self.fields.values()), default=0.0)
 
     @property
     def mismatches(self) -> int:
@@ -68,15 +79,22 @@ class TopicDiff:
         return name if (f.max_abs > 0 or f.mismatches) else ""
 
     def identical(self, tolerance: float) -> bool:
+        """Same counts, no mismatch, every number within ``tolerance`` — or, when the topic was
+        compared with a relative tolerance, within either of the two (counted leaf by leaf)."""
         if not self.compared:
             return True
-        return self.recorded == self.rerun and self.mismatches == 0 and self.max_abs <= tolerance
+        if self.recorded != self.rerun or self.mismatches:
+            return False
+        if self.rtol > 0.0:
+            return all(f.outside == 0 for f in self.fields.values())
+        return self.max_abs <= tolerance
 
 
 @dataclass
 class Comparison:
     topics: dict[str, TopicDiff]
     tolerance: float
+    rtol: float = 0.0
 
     @property
     def identical(self) -> bool:
@@ -86,19 +104,26 @@ class Comparison:
         """The ``n`` worst (topic, field, diff), mismatches first, then by absolute difference."""
         rows = [(t.topic, name, f) for t in self.topics.values() if t.compared for name, f in t.fields.items()
                 if f.mismatches or f.max_abs > 0]
-        rows.sort(key=lambda r: (r[2].mismatches > 0, r[2].max_abs), reverse=True)
+        if self.rtol > 0.0:
+            rows.sort(key=lambda r: (r[2].mismatches > 0, r[2].outside > 0, r[2].max_rel), reverse=True)
+        else:
+            rows.sort(key=lambda r: (r[2].mismatches > 0, r[2].max_abs), reverse=True)
         return rows[:n]
 
     def to_dict(self) -> dict:
         return {
             "identical": self.identical,
             "tolerance": self.tolerance,
+            "rtol": self.rtol,
             "topics": {
                 name: {
                     "recorded": t.recorded, "rerun": t.rerun, "compared": t.compared, "note": t.note,
-                    "max_abs": t.max_abs, "mismatches": t.mismatches, "one_sided": sorted(t.one_sided),
-                    "fields": {k: {"max_abs": f.max_abs, "compared": f.compared, "mismatches": f.mismatches,
-                                   "worst_index": f.worst_index, "worst_t_s": f.worst_t_s, "example": f.example}
+                    "max_abs": t.max_abs, "max_rel": t.max_rel, "mismatches": t.mismatches,
+                    "one_sided": sorted(t.one_sided),
+                    "fields": {k: {"max_abs": f.max_abs, "max_rel": f.max_rel, "outside": f.outside,
+                                   "compared": f.compared, "mismatches": f.mismatches,
+                                   "worst_index": f.worst_index, "worst_t_s": f.worst_t_s, "example": f.example,
+                                   "worst_rel_index": f.worst_rel_index, "worst_rel_t_s": f.worst_rel_t_s}
                                for k, f in sorted(t.fields.items())},
                 }
                 for name, t in sorted(self.topics.items())
@@ -139,9 +164,10 @@ def _without_tag(topic: str, data: Any) -> Any:
 
 
 def compare_messages(topic: str, recorded: list[Any], rerun: list[Any], *, compared: bool = True,
-                     note: str = "") -> TopicDiff:
-    """Pairwise comparison of two message lists of one topic (ICD messages or JSON dicts)."""
-    td = TopicDiff(topic, len(recorded), len(rerun), compared=compared, note=note)
+                     note: str = "", tolerance: float = 0.0, rtol: float = 0.0) -> TopicDiff:
+    """Pairwise comparison of two message lists of one topic (ICD messages or JSON dicts);
+    ``tolerance`` and ``rtol`` decide which numbers count as ``outside``."""
+    td = TopicDiff(topic, len(recorded), len(rerun), compared=compared, note=note, rtol=rtol)
     if not compared:
         return td
     counters = "counts." if topic in STATUS_TOPICS else "reply.status." if topic in COMMAND_TOPICS else None
@@ -172,10 +198,18 @@ def compare_messages(topic: str, recorded: list[Any], rerun: list[Any], *, compa
                         fd.example = f"{_shown(name, a)} vs {_shown(name, b)}"[:100]
                         if fd.max_abs == 0.0:
                             fd.worst_index, fd.worst_t_s = i, t_s
-            elif d > fd.max_abs:
-                fd.max_abs = d
-                if not fd.mismatches:
-                    fd.worst_index, fd.worst_t_s = i, t_s
+            else:
+                scale = max(abs(float(a)), abs(float(b)))
+                rel = d / scale if d > 0.0 else 0.0
+                if d > tolerance and not d <= rtol * scale:
+                    fd.outside += 1
+                if rel > fd.max_rel:
+                    fd.max_rel = rel
+                    fd.worst_rel_index, fd.worst_rel_t_s = i, t_s
+                if d > fd.max_abs:
+                    fd.max_abs = d
+                    if not fd.mismatches:
+                        fd.worst_index, fd.worst_t_s = i, t_s
     return td
 
 
@@ -193,12 +227,12 @@ def _shown(name: str, value: Any) -> str:
 
 
 def compare_runs(recorded: dict[str, list[Any]], rerun: dict[str, list[Any]], *, tolerance: float = 0.0,
-                 counts_only: dict[str, str] | None = None) -> Comparison:
+                 rtol: float = 0.0, counts_only: dict[str, str] | None = None) -> Comparison:
     """Compare every topic of either side; ``counts_only`` maps topics to the reason they are not compared."""
     counts_only = counts_only or {}
     out = {}
     for topic in sorted(recorded.keys() | rerun.keys()):
         reason = counts_only.get(topic)
         out[topic] = compare_messages(topic, recorded.get(topic, []), rerun.get(topic, []),
-                                      compared=reason is None, note=reason or "")
-    return Comparison(out, tolerance)
+                                      compared=reason is None, note=reason or "", tolerance=tolerance, rtol=rtol)
+    return Comparison(out, tolerance, rtol)

@@ -82,10 +82,14 @@ def rerun_and_compare(
     overrides: Sequence[str] = (),
     replacement: str | os.PathLike | None = None,
     tolerance: float = 0.0,
+    rtol: float = 0.0,
 ) -> RegressionResult:
-    """Re-run the FSW of the recorded run in ``path`` (changed as asked) and compare its outputs."""
+    """Re-run the FSW of the recorded run in ``path`` (changed as asked) and compare its outputs:
+    a number agrees when |a − b| ≤ ``tolerance`` or |a − b| ≤ ``rtol`` · max(|a|, |b|)."""
     if not (tolerance >= 0.0 and math.isfinite(tolerance)):
         raise ValueError(f"tolerance must be a finite number >= 0, got {tolerance}")
+    if not (rtol >= 0.0 and math.isfinite(rtol)):
+        raise ValueError(f"rtol must be a finite number >= 0, got {rtol}")
     info = run_info(path)
     if info.config_text is None:
         raise RecordingError(f"{info.path}: no configuration attached (runs recorded by `navbank run` carry config.yaml)")
@@ -111,7 +115,7 @@ def rerun_and_compare(
     notes += calibration_notes(as_recorded, config)
     changes = [f"--config {os.fspath(replacement)}"] if replacement is not None else []
     changes += [f"--set {o}" for o in overrides]
-    comparison = compare_runs(recorded, rerun_topics, tolerance=tolerance, counts_only=counts_only)
+    comparison = compare_runs(recorded, rerun_topics, tolerance=tolerance, rtol=rtol, counts_only=counts_only)
     return RegressionResult(run_id=info.run_id, config=config, changes=changes, rerun=rerun, comparison=comparison,
                             undecodable_recorded=bad, notes=notes, recorded_config=info.config_text,
                             recorded_config_name=label)
@@ -157,14 +161,15 @@ def format_result(res: RegressionResult, largest: int = 10) -> str:
     if res.rerun.undecodable:
         lines.append(f"  {res.rerun.undecodable} recorded measurement payloads did not decode (fed raw, counted by the FSW)")
     width = max([len("topic")] + [len(t) for t in c.topics])
-    lines.append(f"{'topic':<{width}}  {'recorded':>8}  {'re-run':>8}  {'max |diff|':>10}  {'mismatch':>8}  worst field")
+    lines.append(f"{'topic':<{width}}  {'recorded':>8}  {'re-run':>8}  {'max |diff|':>10}  {'max rel':>8}  "
+                 f"{'mismatch':>8}  worst field")
     for t in c.topics.values():
         if not t.compared:
-            lines.append(f"{t.topic:<{width}}  {t.recorded:>8}  {t.rerun:>8}  {'-':>10}  {'-':>8}  ({t.note})")
+            lines.append(f"{t.topic:<{width}}  {t.recorded:>8}  {t.rerun:>8}  {'-':>10}  {'-':>8}  {'-':>8}  ({t.note})")
             continue
         mark = "" if t.identical(c.tolerance) else "  <--"
-        lines.append(f"{t.topic:<{width}}  {t.recorded:>8}  {t.rerun:>8}  {_fmt(t.max_abs):>10}  {t.mismatches:>8}  "
-                     f"{t.worst_field() or '-'}{mark}")
+        lines.append(f"{t.topic:<{width}}  {t.recorded:>8}  {t.rerun:>8}  {_fmt(t.max_abs):>10}  {_fmt(t.max_rel):>8}  "
+                     f"{t.mismatches:>8}  {t.worst_field() or '-'}{mark}")
     rows = c.largest(largest)
     if rows:
         lines.append("largest differences:")
@@ -172,12 +177,19 @@ def format_result(res: RegressionResult, largest: int = 10) -> str:
             at = f" at message {f.worst_index}" if f.worst_index >= 0 else ""
             if f.worst_t_s is not None:
                 at += f" ({_when(f.worst_t_s)})"
-            what = f"{f.mismatches} mismatches, e.g. {f.example}" if f.mismatches else f"|diff| {_fmt(f.max_abs)}"
+            what = (f"{f.mismatches} mismatches, e.g. {f.example}" if f.mismatches
+                    else f"|diff| {_fmt(f.max_abs)}, relative {_fmt(f.max_rel)}"
+                    + (f" ({f.outside} outside the tolerances)" if f.outside and c.rtol > 0.0 else ""))
+            if c.rtol > 0.0 and not f.mismatches and f.worst_rel_index >= 0:
+                at = f" at message {f.worst_rel_index}"
+                if f.worst_rel_t_s is not None:
+                    at += f" ({_when(f.worst_rel_t_s)})"
             lines.append(f"  {topic} {name}: {what}{at}")
     one_sided = sorted({k for t in c.topics.values() for k in t.one_sided})
     if one_sided:
         lines.append("status counters on one side only (process transport counters, not compared): " + ", ".join(one_sided))
     for note in res.notes:
         lines.append("note: " + note)
-    lines.append(f"result: {'IDENTICAL' if c.identical else 'DIFFERENT'} (tolerance {c.tolerance:g})")
+    tol = f"tolerance {c.tolerance:g}" + (f", relative tolerance {c.rtol:g}" if c.rtol > 0.0 else "")
+    lines.append(f"result: {'IDENTICAL' if c.identical else 'DIFFERENT'} ({tol})")
     return "\n".join(lines)

@@ -31,11 +31,13 @@ DESCRIPTION = """Two ways to replay a run recorded by `navbank run` / `navbank g
       Without --consumers nothing is waited for: start displays/loggers (and --connect to
       them) first, or the first messages go out before anyone subscribes.
 
-  navbank replay RUN.mcap --rerun [--set fsw.PATH=VALUE ...] [--config FILE] [--tolerance T] [--out DIR]
+  navbank replay RUN.mcap --rerun [--set fsw.PATH=VALUE ...] [--config FILE] [--tolerance T] [--rtol R] [--out DIR]
       feeds the recorded measurements into a fresh FSW in this process, built from the
       configuration attached to the run (its fsw: section), and compares its telemetry with
-      the recorded /fsw/... messages: counts per topic and the largest absolute difference per
-      field. Exit 0 when identical within the tolerance (default 0: bit for bit), 1 otherwise.
+      the recorded /fsw/... messages: counts per topic and the largest absolute and relative
+      (|a - b| / max(|a|, |b|)) difference per field. Exit 0 when every number is within the
+      tolerance or within the relative tolerance (defaults 0: bit for bit) and every flag,
+      class and name is equal, 1 otherwise.
       Runs in work-unit budget mode are deterministic; runs in CPU mode are re-run in CPU mode
       and may legitimately differ in budget reports (compared by count only) and in
       combined/best estimates. --set/--config change the FSW to see a change show up, e.g.
@@ -69,6 +71,8 @@ def add_arguments(p) -> None:
     r.add_argument("--config", default=None, metavar="FILE",
                    help="replace the recorded FSW config by this scenario's fsw: section (or a bare fsw mapping)")
     r.add_argument("--tolerance", type=float, default=0.0, metavar="T", help="largest absolute difference accepted (default 0)")
+    r.add_argument("--rtol", type=float, default=0.0, metavar="R",
+                   help="largest relative difference |a - b| / max(|a|, |b|) accepted (default 0)")
     r.add_argument("--largest", type=int, default=10, metavar="N", help="list the N largest differences (default 10)")
     r.add_argument("--json", default=None, metavar="FILE", help="also write the comparison as JSON")
     r.add_argument("--out", default=None, metavar="DIR",
@@ -83,12 +87,15 @@ def _rerun(args) -> int:
 
     if not (args.tolerance >= 0 and math.isfinite(args.tolerance)):
         return _fail("--tolerance must be >= 0")
+    if not (args.rtol >= 0 and math.isfinite(args.rtol)):
+        return _fail("--rtol must be a finite number >= 0")
     if args.json:
         check_output_file(args.json, "--json")  # before the re-run: exit 2 for a file we could not write
     if args.out:
         check_output_dir(args.out)
     try:
-        res = rerun_and_compare(args.mcap, overrides=args.overrides, replacement=args.config, tolerance=args.tolerance)
+        res = rerun_and_compare(args.mcap, overrides=args.overrides, replacement=args.config, tolerance=args.tolerance,
+                                rtol=args.rtol)
     except ConfigError:
         raise
     except (RecordingError, McapReadError) as exc:
