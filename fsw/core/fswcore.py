@@ -42,7 +42,7 @@ from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.filters.bank import FilterBank, FilterEstimate
 from fsw.filters.orbit_bank import OrbitBank
 from fsw.filters.errors import MeasurementRejected
-from fsw.gating.base import GatingError, GatingNetwork, WeightsUpdate
+from fsw.gating.base import GatingError, GatingNetwork, WeightsUpdate, check_record
 from fsw.gating.registry import make_network
 from fsw.ingest import SequenceGuard
 from fsw.interface import codec, messages as m, topics
@@ -238,9 +238,17 @@ class FswCore:
     def _stage_gating(self, ctx: JobContext) -> None:
         if ctx.record is None:
             return
+        try:
+            # one check of the record serves every network (each would refuse it alike)
+            mask = check_record(ctx.record, self.filters)
+        except GatingError:
+            for net in self.networks.values():
+                net.refuse()
+            self.counters.gating_errors += len(self.networks)
+            return
         for name, net in self.networks.items():
             try:
-                upd = net.update(ctx.record)
+                upd = net.update_checked(ctx.record, mask)
             except GatingError:
                 self.counters.gating_errors += 1
                 continue
