@@ -22,6 +22,7 @@ skipped; a stage that raises is contained and counted by the executive.
 
 from __future__ import annotations
 
+import gc
 import time
 from typing import Callable, ClassVar, cast
 
@@ -31,8 +32,8 @@ from fsw.config import FswConfig, InitialState
 from fsw.core import commands
 from fsw.core.adaptation import OnboardRqp, report_message
 from fsw.core.counters import CoreCounters, ExtraCounters, status_counts
-from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_job, gating_cost, ingest_cost,
-                               no_gc_pauses, telemetry_cost)
+from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_job, build_stages, gating_cost,
+                               ingest_cost, no_gc_pauses, telemetry_cost)
 from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, bplane_message, budget_message,
                                 command_record, estimate_message, residual_sample, residuals_message, status_message,
                                 weights_message)
@@ -83,6 +84,8 @@ class FswCore:
         self.taken = 0
         # a stage that raises is contained and counted by the executive (BudgetReport.errors)
         self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s)
+        #: the pipeline's stages bound to this core, per load (they are the same for every job)
+        self._stages: dict[Load, tuple[Stage, ...]] = {}
         self.t0 = init.t_s
         self._next_estimate = init.t_s
         self._next_anomaly = init.t_s
@@ -187,9 +190,12 @@ class FswCore:
 
     def _queue(self, meas: m.Measurement) -> None:
         self.advance_to(meas.t_s)
-        load = Load(active_filters=int(self.bank.active.sum()), networks=len(self.networks),
+        load = Load(active_filters=int(np.count_nonzero(self.bank.active)), networks=len(self.networks),
                     adaptive_lp=self.bank.adaptive_lp_cost())
-        self.executive.submit(build_job(self, self.PIPELINE, meas, self.config.budget, load))
+        stages = self._stages.get(load)
+        if stages is None:
+            stages = self._stages[load] = build_stages(self, self.PIPELINE, self.config.budget, load)
+        self.executive.submit(build_job(self, self.PIPELINE, meas, self.config.budget, load, stages))
         if self.rqp.enabled or self.rqp.busy:
             # one slice of the search per measurement, lowest priority, its own lane: never ahead
             # of the bank, charged to the frame that runs it
@@ -202,13 +208,33 @@ class FswCore:
         A BudgetReport is emitted for every frame that did or deferred work, and for idle frames
         at most once per ``telemetry.idle_budget_every_s`` (tracking gaps are days long; a report
         per idle frame would bury the interesting ones)."""
-        while self.executive.t_frame_end + self.config.budget.frame_s <= t:
-            with no_gc_pauses():
-                rep = self.executive.run_frame()
-            busy = rep.processed or rep.deferred or rep.backlog or rep.overruns != self._last_overruns
-            if busy or rep.t_s >= self._next_idle_report:
-                self._emit_budget(rep)
-            self._emit_residuals(rep.t_s, force=False)
+        executive, frame_s = self.executive, self.config.budget.frame_s
+        if executive.t_frame_end + frame_s > t:
+            return
+        # The garbage collector stays out of the frames (see no_gc_pauses): it may run after
+        # them, outside any stage's CPU accounting.
+        gc_was_enabled = gc.isenabled()
+        gc.disable()
+        try:
+            while True:
+                # Idle frames that would report nothing are passed in one step; the first frame
+                # that is due a report (or has work) runs normally.
+                reports_from = self._next_idle_report
+                if self._residuals and self.config.telemetry.residuals_every_s is not None:
+                    reports_from = min(reports_from, self._next_residuals)
+                executive.skip_idle(t, before=reports_from)
+                if executive.t_frame_end + frame_s > t:
+                    break
+                rep = executive.run_frame()
+                busy = rep.processed or rep.deferred or rep.backlog or rep.overruns != self._last_overruns
+                if busy or rep.t_s >= self._next_idle_report:
+                    self._emit_budget(rep)
+                self._emit_residuals(rep.t_s, force=False)
+                if executive.t_frame_end + frame_s > t:
+                    break
+        finally:
+            if gc_was_enabled:
+                gc.enable()
 
     # -- the pipeline: the stages of one measurement's job, in order -----------------------------
     def _stage_ingest(self, ctx: JobContext) -> None:
