@@ -22,6 +22,7 @@ skipped; a stage that raises is contained and counted by the executive.
 
 from __future__ import annotations
 
+import copy
 import gc
 import time
 from typing import Callable, ClassVar, cast
@@ -86,6 +87,9 @@ class FswCore:
         self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s)
         #: the pipeline's stages bound to this core, per load (they are the same for every job)
         self._stages: dict[Load, tuple[Stage, ...]] = {}
+        #: measurement kinds whose first job has been flown on a copy (:meth:`_warm_up`); None:
+        #: no warm-up (work-unit budgets do not depend on the host's start-up costs)
+        self._warm_kinds: set[str] | None = set() if config.budget.mode == "cpu" else None
         self.t0 = init.t_s
         self._next_estimate = init.t_s
         self._next_anomaly = init.t_s
@@ -111,6 +115,8 @@ class FswCore:
         state = dict(self.__dict__)
         state["_sink"] = None
         state["extra_counters"] = None
+        if self._warm_kinds is not None:
+            state["_warm_kinds"] = set()  # a resumed process starts cold: it warms up again
         return state
 
     def attach(self, emit: Emit) -> None:
@@ -190,6 +196,8 @@ class FswCore:
 
     def _queue(self, meas: m.Measurement) -> None:
         self.advance_to(meas.t_s)
+        if self._warm_kinds is not None and meas.kind not in self._warm_kinds:
+            self._warm_up(meas)
         load = Load(active_filters=int(np.count_nonzero(self.bank.active)), networks=len(self.networks),
                     adaptive_lp=self.bank.adaptive_lp_cost())
         stages = self._stages.get(load)
@@ -201,6 +209,34 @@ class FswCore:
             # of the bank, charged to the frame that runs it
             self.executive.submit(Job(meas.t_s, (Stage("telemetry", self._stage_rqp, lane="rqp",
                                                        cost=self.config.rqp.slice_cost, name="rqp"),), "rqp"))
+
+    def _warm_up(self, meas: m.Measurement) -> None:
+        """Fly ``meas``'s job once on a throwaway copy of the core, before any frame runs it.
+
+        The first measurement of a kind pays one-time costs — code loaded, tables built, caches
+        filled, compiled kernels loaded — of ten to twenty typical stages; charged to the frame
+        that first runs it, that overran the budget at start-up. They belong to the start-up
+        phase, not to the flight budget: the copy pays them here, outside every frame. It shares
+        nothing with the core that the job's outcome depends on, so the core's outputs are
+        those of a core without warm-up (``tests/test_fsw_warm_up.py``); what carries over is
+        what the process keeps — loaded code and kernels, the caches of pure functions — and
+        the environment's tables when the job is next in line. A warm-up that fails is ignored."""
+        self._warm_kinds.add(meas.kind)  # type: ignore[union-attr]
+        env = self.bank.stack.env
+        # With nothing queued, the next calls the core makes on its environment are this job's,
+        # the very calls the copy makes: sharing the environment then leaves it as the job
+        # itself would (the ephemeris table built where the job would build it), and the job
+        # finds it ready. With jobs queued, their calls come first: the copy gets its own.
+        clone = copy.deepcopy(self, {id(env): env} if self.executive.pending_jobs == 0 else None)
+        clone._sink = lambda topic, msg: None
+        clone._warm_kinds = None
+        job = build_job(clone, clone.PIPELINE, meas, clone.config.budget,
+                        Load(active_filters=int(np.count_nonzero(clone.bank.active)), networks=len(clone.networks)))
+        for stage in job.stages:
+            try:
+                stage.fn(job.context)
+            except Exception:  # the copy is thrown away whatever it did
+                pass
 
     def advance_to(self, t: float) -> None:
         """Run every frame that ends before ``t``.
