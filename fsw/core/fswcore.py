@@ -85,8 +85,9 @@ class FswCore:
         self.taken = 0
         # a stage that raises is contained and counted by the executive (BudgetReport.errors)
         self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s)
-        #: the pipeline's stages bound to this core, per load (they are the same for every job)
-        self._stages: dict[Load, tuple[Stage, ...]] = {}
+        #: the pipeline's stages bound to this core, per load (enabled filters, networks, adaptive
+        #: LP work units): the same for every job of that load; a job is they and its context
+        self._stages: dict[tuple[int, int, float], tuple[Stage, ...]] = {}
         #: measurement kinds whose first job has been flown on a copy (:meth:`_warm_up`); None:
         #: no warm-up (work-unit budgets do not depend on the host's start-up costs)
         self._warm_kinds: set[str] | None = set() if config.budget.mode == "cpu" else None
@@ -198,12 +199,12 @@ class FswCore:
         self.advance_to(meas.t_s)
         if self._warm_kinds is not None and meas.kind not in self._warm_kinds:
             self._warm_up(meas)
-        load = Load(active_filters=int(np.count_nonzero(self.bank.active)), networks=len(self.networks),
-                    adaptive_lp=self.bank.adaptive_lp_cost())
-        stages = self._stages.get(load)
+        key = (int(np.count_nonzero(self.bank.active)), len(self.networks), self.bank.adaptive_lp_cost())
+        stages = self._stages.get(key)
         if stages is None:
-            stages = self._stages[load] = build_stages(self, self.PIPELINE, self.config.budget, load)
-        self.executive.submit(build_job(self, self.PIPELINE, meas, self.config.budget, load, stages))
+            load = Load(active_filters=key[0], networks=key[1], adaptive_lp=key[2])
+            stages = self._stages[key] = build_stages(self, self.PIPELINE, self.config.budget, load)
+        self.executive.submit(Job(meas.t_s, stages, str(meas.seq), JobContext(meas)))
         if self.rqp.enabled or self.rqp.busy:
             # one slice of the search per measurement, lowest priority, its own lane: never ahead
             # of the bank, charged to the frame that runs it

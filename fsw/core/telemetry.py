@@ -79,14 +79,15 @@ def residual_sample(rec: BankRecord, source: str) -> m.ResidualSample:
 
     One per measurement, of a few numbers each: built from Python floats (square roots and
     quotients are correctly rounded, so the same as numpy's)."""
-    n = rec.residual.shape[1]
-    S = rec.S.tolist()
-    sigma = tuple(tuple(math.sqrt(max(S_i[k][k], 0.0)) for k in range(n)) for S_i in S)
-    residual = tuple(map(tuple, np.asarray(rec.residual, dtype=float).tolist()))
-    norm = tuple(tuple(z / s if s > 0.0 else 0.0 for z, s in zip(z_i, s_i)) for z_i, s_i in zip(residual, sigma))
+    residual = np.asarray(rec.residual, dtype=float)
+    n_f, n = residual.shape
+    z = residual.tolist()
+    variances = np.asarray(rec.S, dtype=float).reshape(n_f, n * n)[:, ::n + 1].tolist()  # diag S per filter
+    sigma = [[math.sqrt(max(v, 0.0)) for v in row] for row in variances]
+    norm = [tuple([a / s if s > 0.0 else 0.0 for a, s in zip(z_i, s_i)]) for z_i, s_i in zip(z, sigma)]
     return m.ResidualSample(
-        t_s=float(rec.t), seq=int(rec.seq), kind=rec.kind, source=source, residual=residual, sigma=sigma,
-        normalised=norm, nis=tuple(np.asarray(rec.chi2, dtype=float).tolist()),
+        t_s=float(rec.t), seq=int(rec.seq), kind=rec.kind, source=source, residual=tuple(map(tuple, z)),
+        sigma=tuple(map(tuple, sigma)), normalised=tuple(norm), nis=tuple(np.asarray(rec.chi2, dtype=float).tolist()),
         processed=tuple(np.asarray(rec.processed, dtype=bool).tolist()),
     )
 

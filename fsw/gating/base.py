@@ -107,11 +107,14 @@ class WeightsUpdate:
 
 def log_normalize(log_w: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Log-sum-exp normalisation over ``mask``; entries outside the mask become −inf."""
-    if mask.ndim == 1 and mask.all():
+    if mask.ndim == 1 and False not in mask.tolist():
         # Every filter active (the usual case): no masking, the largest term found in Python.
         # exp, sum and log stay numpy's, so the result is the masked form's to the bit.
         top = max(log_w.tolist())
-        return log_w - (top + np.log(np.sum(np.exp(log_w - top))))
+        terms = np.exp(log_w - top)
+        # numpy adds up to three terms left to right, as Python does (more: in its own order)
+        total = sum(terms.tolist()) if terms.size <= 3 else terms.sum()
+        return log_w - (top + np.log(total))
     out = np.full(log_w.shape, -np.inf)
     if not np.any(mask):
         return out

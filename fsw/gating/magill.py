@@ -168,7 +168,7 @@ class MagillNetwork(GatingNetwork):
         self._logp = logp
 
     def _step(self, loglik: np.ndarray, mask: np.ndarray) -> None:
-        evidence = loglik if mask.all() else np.where(mask, loglik, 0.0)
+        evidence = loglik if False not in mask.tolist() else np.where(mask, loglik, 0.0)
         logp = log_normalize(self._logp + evidence, mask)
         self._logp = apply_lower_bound(logp, mask, self.params.lower_bound)
 
