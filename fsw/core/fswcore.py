@@ -73,6 +73,7 @@ class FswCore:
             g.network: make_network(g.network, self.filters, g.params) for g in config.gating
         }
         self.latest: dict[str, WeightsUpdate] = {}
+        self._weights_topics: dict[str, str] = {}  # network -> its topic, made once
         det = config.detector
         self.reporter: AnomalyReporter | None = None
         if det.calibration is not None:
@@ -364,7 +365,10 @@ class FswCore:
     def _publish_weights(self, name: str, upd: WeightsUpdate, frame_end: float | None) -> None:
         """New weights of network ``name``: out to the ground, and to the detector if it watches it."""
         self.latest[name] = upd
-        self._emit(f"{topics.FSW_WEIGHTS}/{upd.network}", weights_message(upd))
+        topic = self._weights_topics.get(upd.network)
+        if topic is None:
+            topic = self._weights_topics[upd.network] = f"{topics.FSW_WEIGHTS}/{upd.network}"
+        self._emit(topic, weights_message(upd))
         if self.reporter is not None and name == self.config.detector.network:
             state = self.reporter.consume(upd, frame_end, active=self.bank.active.copy())
             self._report_anomaly(state, force=False)
