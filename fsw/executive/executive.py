@@ -229,6 +229,7 @@ class FrameExecutive:
         self._promote(t_end)
         frame = self._frame
         queue, meter, clock = self._queue, self._meter, self._clock
+        peek, complete, predict, admits, charge = queue.peek, queue.complete, meter.predict, meter.admits, meter.charge
         lane_progress = self._lane_progress
         budget = self.config.budget
         used = 0.0
@@ -237,14 +238,14 @@ class FrameExecutive:
         # executive's own bookkeeping between them is charged to the stage it leads to.
         mark: float | None = None
         while True:
-            picked = queue.peek()
+            picked = peek()
             if picked is None:
                 break
             state, index = picked
             job = state.job
             stage = job.stages[index]
             remaining = budget - used
-            if processed and not meter.admits(meter.predict(stage), remaining):
+            if processed and not admits(predict(stage), remaining):
                 break
             start = clock() if mark is None else mark
             try:
@@ -257,12 +258,12 @@ class FrameExecutive:
             mark = clock()
             measured = measured_interval(start, mark)
             self._cpu_measured += measured
-            cost = meter.charge(stage, measured)
+            cost = charge(stage, measured)
             if cost > remaining:
                 self._overruns += 1
             used += cost
             processed += 1
-            if queue.complete(state, index):
+            if complete(state, index):
                 self._jobs_completed += 1
             lane_progress[stage.lane_key] = float(job.t)
         self._stages_run += processed
