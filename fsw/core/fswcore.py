@@ -33,7 +33,7 @@ from fsw.config import FswConfig, InitialState
 from fsw.core import commands
 from fsw.core.adaptation import OnboardRqp, report_message
 from fsw.core.counters import CoreCounters, ExtraCounters, status_counts
-from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_job, build_stages, gating_cost,
+from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_stages, gating_cost,
                                ingest_cost, no_gc_pauses, telemetry_cost)
 from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, bplane_message, budget_message,
                                 command_record, estimate_message, residual_sample, residuals_message, status_message,
@@ -200,17 +200,21 @@ class FswCore:
         self.advance_to(meas.t_s)
         if self._warm_kinds is not None and meas.kind not in self._warm_kinds:
             self._warm_up(meas)
-        key = (int(np.count_nonzero(self.bank.active)), len(self.networks), self.bank.adaptive_lp_cost())
-        stages = self._stages.get(key)
-        if stages is None:
-            load = Load(active_filters=key[0], networks=key[1], adaptive_lp=key[2])
-            stages = self._stages[key] = build_stages(self, self.PIPELINE, self.config.budget, load)
-        self.executive.submit(Job(meas.t_s, stages, str(meas.seq), JobContext(meas)))
+        self.executive.submit(Job(meas.t_s, self._stages_now(), str(meas.seq), JobContext(meas)))
         if self.rqp.enabled or self.rqp.busy:
             # one slice of the search per measurement, lowest priority, its own lane: never ahead
             # of the bank, charged to the frame that runs it
             self.executive.submit(Job(meas.t_s, (Stage("telemetry", self._stage_rqp, lane="rqp",
                                                        cost=self.config.rqp.slice_cost, name="rqp"),), "rqp"))
+
+    def _stages_now(self) -> tuple[Stage, ...]:
+        """The pipeline's stages for the load of now (enabled filters, networks, adaptive LP work)."""
+        key = (int(np.count_nonzero(self.bank.active)), len(self.networks), self.bank.adaptive_lp_cost())
+        stages = self._stages.get(key)
+        if stages is None:
+            load = Load(active_filters=key[0], networks=key[1], adaptive_lp=key[2])
+            stages = self._stages[key] = build_stages(self, self.PIPELINE, self.config.budget, load)
+        return stages
 
     def _warm_up(self, meas: m.Measurement) -> None:
         """Fly ``meas``'s job once on a throwaway copy of the core, before any frame runs it.
@@ -232,8 +236,7 @@ class FswCore:
         clone = copy.deepcopy(self, {id(env): env} if self.executive.pending_jobs == 0 else None)
         clone._sink = lambda topic, msg: None
         clone._warm_kinds = None
-        job = build_job(clone, clone.PIPELINE, meas, clone.config.budget,
-                        Load(active_filters=int(np.count_nonzero(clone.bank.active)), networks=len(clone.networks)))
+        job = Job(meas.t_s, clone._stages_now(), str(meas.seq), JobContext(meas))
         for stage in job.stages:
             try:
                 stage.fn(job.context)
