@@ -69,7 +69,7 @@ def test_a_job_binds_every_row_to_the_core_and_one_context():
     assert (job.t, job.tag) == (100.0, "5")
     assert [(s.kind, s.label, s.cost) for s in job.stages] == [("primary", "a", 7.0), ("gating", "gating", 3.0)]
     for s in job.stages:
-        s.fn()
+        s.fn(job.context)
     assert rec.calls[0] == ("first", None)
     assert rec.calls[1][0] == "second" and rec.calls[1][1] is not None
 

@@ -8,6 +8,7 @@ import random
 import pytest
 
 from fsw.executive import (
+    ICD_FIELDS,
     BudgetConfig,
     FrameExecutive,
     FrameTimeError,
@@ -270,6 +271,7 @@ def test_report_maps_onto_the_icd_budget_report():
     ex = FrameExecutive(wu(work_unit_budget=10.0))
     ex.submit(uniform_job(0.0, []))
     report = ex.run_frame()
+    assert report.icd_fields() == {name: getattr(report, name) for name in ICD_FIELDS}
     msg = messages.BudgetReport(timestamp=messages.Stamp(sec=0, nsec=0), **report.icd_fields())
     back = codec.from_json(messages.BudgetReport, codec.to_json(msg))
     assert (back.frame, back.used, back.budget, back.deferred, back.backlog, back.mode) == (0, 10.0, 10.0, 6, 1, "work-units")

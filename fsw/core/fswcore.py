@@ -22,6 +22,8 @@ skipped; a stage that raises is contained and counted by the executive.
 
 from __future__ import annotations
 
+import copy
+import gc
 import time
 from typing import Callable, ClassVar, cast
 
@@ -31,8 +33,8 @@ from fsw.config import FswConfig, InitialState
 from fsw.core import commands
 from fsw.core.adaptation import OnboardRqp, report_message
 from fsw.core.counters import CoreCounters, ExtraCounters, status_counts
-from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_job, gating_cost, ingest_cost,
-                               no_gc_pauses, telemetry_cost)
+from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_stages, gating_cost,
+                               ingest_cost, no_gc_pauses, telemetry_cost)
 from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, bplane_message, budget_message,
                                 command_record, estimate_message, residual_sample, residuals_message, status_message,
                                 weights_message)
@@ -42,7 +44,7 @@ from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.filters.bank import FilterBank, FilterEstimate
 from fsw.filters.orbit_bank import OrbitBank
 from fsw.filters.errors import MeasurementRejected
-from fsw.gating.base import GatingError, GatingNetwork, WeightsUpdate
+from fsw.gating.base import GatingError, GatingNetwork, WeightsUpdate, check_record
 from fsw.gating.registry import make_network
 from fsw.ingest import SequenceGuard
 from fsw.interface import codec, messages as m, topics
@@ -71,6 +73,7 @@ class FswCore:
             g.network: make_network(g.network, self.filters, g.params) for g in config.gating
         }
         self.latest: dict[str, WeightsUpdate] = {}
+        self._weights_topics: dict[str, str] = {}  # network -> its topic, made once
         det = config.detector
         self.reporter: AnomalyReporter | None = None
         if det.calibration is not None:
@@ -83,6 +86,12 @@ class FswCore:
         self.taken = 0
         # a stage that raises is contained and counted by the executive (BudgetReport.errors)
         self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s)
+        #: the pipeline's stages bound to this core, per load (enabled filters, networks, adaptive
+        #: LP work units): the same for every job of that load; a job is they and its context
+        self._stages: dict[tuple[int, int, float], tuple[Stage, ...]] = {}
+        #: measurement kinds whose first job has been flown on a copy (:meth:`_warm_up`); None:
+        #: no warm-up (work-unit budgets do not depend on the host's start-up costs)
+        self._warm_kinds: set[str] | None = set() if config.budget.mode == "cpu" else None
         self.t0 = init.t_s
         self._next_estimate = init.t_s
         self._next_anomaly = init.t_s
@@ -108,6 +117,8 @@ class FswCore:
         state = dict(self.__dict__)
         state["_sink"] = None
         state["extra_counters"] = None
+        if self._warm_kinds is not None:
+            state["_warm_kinds"] = set()  # a resumed process starts cold: it warms up again
         return state
 
     def attach(self, emit: Emit) -> None:
@@ -187,14 +198,50 @@ class FswCore:
 
     def _queue(self, meas: m.Measurement) -> None:
         self.advance_to(meas.t_s)
-        load = Load(active_filters=int(self.bank.active.sum()), networks=len(self.networks),
-                    adaptive_lp=self.bank.adaptive_lp_cost())
-        self.executive.submit(build_job(self, self.PIPELINE, meas, self.config.budget, load))
+        if self._warm_kinds is not None and meas.kind not in self._warm_kinds:
+            self._warm_up(meas)
+        self.executive.submit(Job(meas.t_s, self._stages_now(), str(meas.seq), JobContext(meas)))
         if self.rqp.enabled or self.rqp.busy:
             # one slice of the search per measurement, lowest priority, its own lane: never ahead
             # of the bank, charged to the frame that runs it
             self.executive.submit(Job(meas.t_s, (Stage("telemetry", self._stage_rqp, lane="rqp",
                                                        cost=self.config.rqp.slice_cost, name="rqp"),), "rqp"))
+
+    def _stages_now(self) -> tuple[Stage, ...]:
+        """The pipeline's stages for the load of now (enabled filters, networks, adaptive LP work)."""
+        key = (int(np.count_nonzero(self.bank.active)), len(self.networks), self.bank.adaptive_lp_cost())
+        stages = self._stages.get(key)
+        if stages is None:
+            load = Load(active_filters=key[0], networks=key[1], adaptive_lp=key[2])
+            stages = self._stages[key] = build_stages(self, self.PIPELINE, self.config.budget, load)
+        return stages
+
+    def _warm_up(self, meas: m.Measurement) -> None:
+        """Fly ``meas``'s job once on a throwaway copy of the core, before any frame runs it.
+
+        The first measurement of a kind pays one-time costs — code loaded, tables built, caches
+        filled, compiled kernels loaded — of ten to twenty typical stages; charged to the frame
+        that first runs it, that overran the budget at start-up. They belong to the start-up
+        phase, not to the flight budget: the copy pays them here, outside every frame. It shares
+        nothing with the core that the job's outcome depends on, so the core's outputs are
+        those of a core without warm-up (``tests/test_fsw_warm_up.py``); what carries over is
+        what the process keeps — loaded code and kernels, the caches of pure functions — and
+        the environment's tables when the job is next in line. A warm-up that fails is ignored."""
+        self._warm_kinds.add(meas.kind)  # type: ignore[union-attr]
+        env = self.bank.stack.env
+        # With nothing queued, the next calls the core makes on its environment are this job's,
+        # the very calls the copy makes: sharing the environment then leaves it as the job
+        # itself would (the ephemeris table built where the job would build it), and the job
+        # finds it ready. With jobs queued, their calls come first: the copy gets its own.
+        clone = copy.deepcopy(self, {id(env): env} if self.executive.pending_jobs == 0 else None)
+        clone._sink = lambda topic, msg: None
+        clone._warm_kinds = None
+        job = Job(meas.t_s, clone._stages_now(), str(meas.seq), JobContext(meas))
+        for stage in job.stages:
+            try:
+                stage.fn(job.context)
+            except Exception:  # the copy is thrown away whatever it did
+                pass
 
     def advance_to(self, t: float) -> None:
         """Run every frame that ends before ``t``.
@@ -202,13 +249,33 @@ class FswCore:
         A BudgetReport is emitted for every frame that did or deferred work, and for idle frames
         at most once per ``telemetry.idle_budget_every_s`` (tracking gaps are days long; a report
         per idle frame would bury the interesting ones)."""
-        while self.executive.t_frame_end + self.config.budget.frame_s <= t:
-            with no_gc_pauses():
-                rep = self.executive.run_frame()
-            busy = rep.processed or rep.deferred or rep.backlog or rep.overruns != self._last_overruns
-            if busy or rep.t_s >= self._next_idle_report:
-                self._emit_budget(rep)
-            self._emit_residuals(rep.t_s, force=False)
+        executive, frame_s = self.executive, self.config.budget.frame_s
+        if executive.t_frame_end + frame_s > t:
+            return
+        # The garbage collector stays out of the frames (see no_gc_pauses): it may run after
+        # them, outside any stage's CPU accounting.
+        gc_was_enabled = gc.isenabled()
+        gc.disable()
+        try:
+            while True:
+                # Idle frames that would report nothing are passed in one step; the first frame
+                # that is due a report (or has work) runs normally.
+                reports_from = self._next_idle_report
+                if self._residuals and self.config.telemetry.residuals_every_s is not None:
+                    reports_from = min(reports_from, self._next_residuals)
+                executive.skip_idle(t, before=reports_from)
+                if executive.t_frame_end + frame_s > t:
+                    break
+                rep = executive.run_frame()
+                busy = rep.processed or rep.deferred or rep.backlog or rep.overruns != self._last_overruns
+                if busy or rep.t_s >= self._next_idle_report:
+                    self._emit_budget(rep)
+                self._emit_residuals(rep.t_s, force=False)
+                if executive.t_frame_end + frame_s > t:
+                    break
+        finally:
+            if gc_was_enabled:
+                gc.enable()
 
     # -- the pipeline: the stages of one measurement's job, in order -----------------------------
     def _stage_ingest(self, ctx: JobContext) -> None:
@@ -238,9 +305,17 @@ class FswCore:
     def _stage_gating(self, ctx: JobContext) -> None:
         if ctx.record is None:
             return
+        try:
+            # one check of the record serves every network (each would refuse it alike)
+            mask = check_record(ctx.record, self.filters)
+        except GatingError:
+            for net in self.networks.values():
+                net.refuse()
+            self.counters.gating_errors += len(self.networks)
+            return
         for name, net in self.networks.items():
             try:
-                upd = net.update(ctx.record)
+                upd = net.update_checked(ctx.record, mask)
             except GatingError:
                 self.counters.gating_errors += 1
                 continue
@@ -293,7 +368,10 @@ class FswCore:
     def _publish_weights(self, name: str, upd: WeightsUpdate, frame_end: float | None) -> None:
         """New weights of network ``name``: out to the ground, and to the detector if it watches it."""
         self.latest[name] = upd
-        self._emit(f"{topics.FSW_WEIGHTS}/{upd.network}", weights_message(upd))
+        topic = self._weights_topics.get(upd.network)
+        if topic is None:
+            topic = self._weights_topics[upd.network] = f"{topics.FSW_WEIGHTS}/{upd.network}"
+        self._emit(topic, weights_message(upd))
         if self.reporter is not None and name == self.config.detector.network:
             state = self.reporter.consume(upd, frame_end, active=self.bank.active.copy())
             self._report_anomaly(state, force=False)

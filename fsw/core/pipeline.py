@@ -23,7 +23,7 @@ from fsw.interface import messages as m
 Core = TypeVar("Core")
 
 
-@dataclass
+@dataclass(slots=True)
 class JobContext:
     """What the stages of one measurement's job hand on to each other."""
 
@@ -69,13 +69,20 @@ class StageSpec(Generic[Core]):
     cost: Callable[[BudgetConfig, Load], float]
 
 
+def build_stages(core: Core, pipeline: tuple[StageSpec[Core], ...], budget: BudgetConfig,
+                 load: Load) -> tuple[Stage, ...]:
+    """The pipeline's stages bound to ``core``, costed for ``load``; each takes the job's
+    :class:`JobContext`. They depend on nothing else, so a core builds them once per load."""
+    return tuple(Stage(s.kind, partial(s.run, core), cost=s.cost(budget, load), name=s.label) for s in pipeline)
+
+
 def build_job(core: Core, pipeline: tuple[StageSpec[Core], ...], meas: m.Measurement,
-              budget: BudgetConfig, load: Load) -> Job:
-    """The job of ``meas``: the pipeline's stages bound to ``core`` and one shared context."""
-    ctx = JobContext(meas)
-    stages = tuple(Stage(s.kind, partial(s.run, core, ctx), cost=s.cost(budget, load), name=s.label)
-                   for s in pipeline)
-    return Job(t=meas.t_s, stages=stages, tag=str(meas.seq))
+              budget: BudgetConfig, load: Load, stages: tuple[Stage, ...] | None = None) -> Job:
+    """The job of ``meas``: the pipeline's stages bound to ``core`` (``stages``, if the caller
+    has them from :func:`build_stages`) and one context they share."""
+    if stages is None:
+        stages = build_stages(core, pipeline, budget, load)
+    return Job(t=meas.t_s, stages=stages, tag=str(meas.seq), context=JobContext(meas))
 
 
 @contextmanager

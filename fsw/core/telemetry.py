@@ -10,6 +10,7 @@ FSW core and the ground's replay of a detector (campaign monitors) report alike.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Callable, Mapping
@@ -52,10 +53,10 @@ def stamp(t_s: float) -> m.Stamp:
 def weights_message(upd: WeightsUpdate) -> m.FilterWeights:
     """A gating network's new weights; ``statistic`` is the per-filter quantity behind them
     (e.g. the batch chi-square G_k,i of Lubey & Ely 2022 eq. 6), empty if the network has none."""
-    stat = () if upd.statistic is None else tuple(float(s) for s in upd.statistic)
+    stat = () if upd.statistic is None else tuple(np.asarray(upd.statistic, dtype=float).tolist())
     return m.FilterWeights(
         t_s=float(upd.t), timestamp=stamp(upd.t), network=upd.network, batch=int(upd.batch),
-        filters=tuple(upd.filters), weights=tuple(float(w) for w in upd.weights),
+        filters=tuple(upd.filters), weights=tuple(np.asarray(upd.weights, dtype=float).tolist()),
         groups=upd.groups(), statistic=stat,
     )
 
@@ -74,15 +75,20 @@ def estimate_message(est: FilterEstimate, label: str, full_covariance: bool) -> 
 
 def residual_sample(rec: BankRecord, source: str) -> m.ResidualSample:
     """The pre-fit residuals the bank computed for one measurement (Lubey & Ely 2022 eq. 5), with
-    σ = √diag S and the normalised residual z̄/σ per filter and component; not recomputed."""
-    sigma = np.sqrt(np.maximum(np.diagonal(rec.S, axis1=1, axis2=2), 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        norm = np.where(sigma > 0.0, rec.residual / np.where(sigma > 0.0, sigma, 1.0), 0.0)
+    σ = √diag S and the normalised residual z̄/σ per filter and component; not recomputed.
+
+    One per measurement, of a few numbers each: built from Python floats (square roots and
+    quotients are correctly rounded, so the same as numpy's)."""
+    residual = np.asarray(rec.residual, dtype=float)
+    n_f, n = residual.shape
+    z = residual.tolist()
+    variances = np.asarray(rec.S, dtype=float).reshape(n_f, n * n)[:, ::n + 1].tolist()  # diag S per filter
+    sigma = [[math.sqrt(max(v, 0.0)) for v in row] for row in variances]
+    norm = [tuple([a / s if s > 0.0 else 0.0 for a, s in zip(z_i, s_i)]) for z_i, s_i in zip(z, sigma)]
     return m.ResidualSample(
-        t_s=float(rec.t), seq=int(rec.seq), kind=rec.kind, source=source,
-        residual=tuple(map(tuple, np.asarray(rec.residual, dtype=float).tolist())),
-        sigma=tuple(map(tuple, sigma.tolist())), normalised=tuple(map(tuple, norm.tolist())),
-        nis=tuple(np.asarray(rec.chi2, dtype=float).tolist()), processed=tuple(np.asarray(rec.processed, dtype=bool).tolist()),
+        t_s=float(rec.t), seq=int(rec.seq), kind=rec.kind, source=source, residual=tuple(map(tuple, z)),
+        sigma=tuple(map(tuple, sigma)), normalised=tuple(norm), nis=tuple(np.asarray(rec.chi2, dtype=float).tolist()),
+        processed=tuple(np.asarray(rec.processed, dtype=bool).tolist()),
     )
 
 

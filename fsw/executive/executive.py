@@ -197,44 +197,83 @@ class FrameExecutive:
             reports.append(self.run_frame(t_end))
         return DrainResult(frames=len(reports), reports=tuple(reports), remaining_jobs=self.pending_jobs)
 
+    def skip_idle(self, until: float, before: float = math.inf) -> int:
+        """Pass, without reports, the frames of the regular cadence that end at or before
+        ``until`` and before ``before`` and in which nothing is due (no job queued, none tagged at
+        or before the frame's end); returns how many.
+
+        Such a frame runs nothing, uses nothing and defers nothing: this leaves the executive as
+        :meth:`run_frame` would for each of them, at the cost of an addition per frame (tracking
+        gaps are days of idle frames). The caller says with ``before`` from where on it wants the
+        frames' reports (e.g. a periodic idle report)."""
+        if self._running:
+            raise RuntimeError("skip_idle called from inside a stage")
+        if self._queue.pending_jobs:
+            return 0
+        with self._lock:
+            t_due = self._future[0].job.t if self._future else math.inf
+        frame_s, budget = self.config.frame_s, self.config.budget
+        t_end, skipped, budget_total = self._t_end, 0, self._budget_total
+        while True:
+            nxt = t_end + frame_s
+            if nxt > until or nxt >= before or nxt >= t_due:
+                break
+            t_end = nxt
+            skipped += 1
+            budget_total += budget  # added frame by frame, as run_frame adds it
+        self._t_end, self._budget_total = t_end, budget_total
+        self._frame += skipped
+        return skipped
+
     def _run(self, t_end: float) -> BudgetReportData:
         self._promote(t_end)
         frame = self._frame
         queue, meter, clock = self._queue, self._meter, self._clock
+        peek, complete, predict, admits, charge = queue.peek, queue.complete, meter.predict, meter.admits, meter.charge
+        lane_progress = self._lane_progress
         budget = self.config.budget
         used = 0.0
         processed = 0
+        # One clock reading per stage: the end of one stage is the start of the next, so the
+        # executive's own bookkeeping between them is charged to the stage it leads to.
+        mark: float | None = None
         while True:
-            picked = queue.peek()
+            picked = peek()
             if picked is None:
                 break
             state, index = picked
-            stage = state.job.stages[index]
+            job = state.job
+            stage = job.stages[index]
             remaining = budget - used
-            if processed and not meter.admits(meter.predict(stage), remaining):
+            if processed and not admits(predict(stage), remaining):
                 break
-            start = clock()
+            start = clock() if mark is None else mark
             try:
-                stage.fn()
+                if job.context is None:
+                    stage.fn()
+                else:
+                    stage.fn(job.context)
             except Exception as exc:  # a faulty stage must never stop the executive
                 self._record_error(frame, state, stage, exc)
-            measured = measured_interval(start, clock())
+            mark = clock()
+            measured = measured_interval(start, mark)
             self._cpu_measured += measured
-            cost = meter.charge(stage, measured)
+            cost = charge(stage, measured)
             if cost > remaining:
                 self._overruns += 1
             used += cost
             processed += 1
-            if queue.complete(state, index):
+            if complete(state, index):
                 self._jobs_completed += 1
-            self._lane_progress[stage.lane_key] = float(state.job.t)
+            lane_progress[stage.lane_key] = float(job.t)
         self._stages_run += processed
         self._t_end = t_end
         self._frame += 1
         backlog = queue.pending_jobs
         oldest = queue.oldest()
         warning = backlog > self.config.max_backlog
-        self._max_backlog_seen = max(self._max_backlog_seen, backlog)
+        if backlog > self._max_backlog_seen:
+            self._max_backlog_seen = backlog
         self._backlog_warnings += int(warning)
         self._used_total += used
         self._budget_total += budget

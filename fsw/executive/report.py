@@ -39,7 +39,11 @@ class BudgetReportData:
 
     def icd_fields(self) -> dict:
         """Keyword arguments for the ICD ``BudgetReport`` (the caller adds ``timestamp``)."""
-        return {name: getattr(self, name) for name in ICD_FIELDS}
+        # spelled out: one per reported frame, and a dict display is several times cheaper than
+        # getattr over ICD_FIELDS (tests/test_executive_budget.py checks the two agree)
+        return {"frame": self.frame, "t_s": self.t_s, "mode": self.mode, "used": self.used, "budget": self.budget,
+                "utilisation": self.utilisation, "processed": self.processed, "deferred": self.deferred,
+                "backlog": self.backlog, "overruns": self.overruns, "errors": self.errors}
 
 
 @dataclass(frozen=True, slots=True)

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections import deque
 
-from fsw.executive.work import PRIORITY_RANK, Job
+from fsw.executive.work import Job
 
 
 class JobState:
@@ -62,8 +62,12 @@ class StageQueue:
     def add(self, state: JobState) -> None:
         """Queue a due job; jobs must arrive in order (their lanes stay FIFO)."""
         self._jobs.append(state)
+        lanes = self._lanes
         for index, stage in enumerate(state.job.stages):
-            self._lanes.setdefault(stage.lane_key, deque()).append((state, index))
+            lane = lanes.get(stage.lane_key)
+            if lane is None:
+                lane = lanes[stage.lane_key] = deque()
+            lane.append((state, index))
         self.pending_stages += len(state.job.stages)
         self.pending_jobs += 1
 
@@ -79,15 +83,18 @@ class StageQueue:
         if self._policy == "fifo":
             state = self.oldest()
             return None if state is None else (state, state.next)
+        # the ready lane head of lowest (priority rank, job order); ranks compared first because
+        # they decide almost every comparison
         best: tuple[JobState, int] | None = None
-        best_key: tuple[int, int] | None = None
+        best_rank = best_order = 0
         for lane in self._lanes.values():
-            state, index = lane[0]
+            head = lane[0]
+            state, index = head
             if state.next != index:
                 continue
-            key = (PRIORITY_RANK[state.job.stages[index].kind], state.order)
-            if best_key is None or key < best_key:
-                best, best_key = (state, index), key
+            rank = state.job.stages[index].rank
+            if best is None or rank < best_rank or (rank == best_rank and state.order < best_order):
+                best, best_rank, best_order = head, rank, state.order
         return best
 
     def complete(self, state: JobState, index: int) -> bool:
@@ -101,7 +108,7 @@ class StageQueue:
             del self._lanes[lane_key]
         state.next += 1
         self.pending_stages -= 1
-        if state.done:
+        if state.next >= len(state.job.stages):
             self.pending_jobs -= 1
             return True
         return False

@@ -10,7 +10,7 @@ lanes ahead or behind. The executive knows nothing about what a stage does.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 from fsw.executive.config import PRIORITY_CLASSES, StageKind
@@ -36,8 +36,9 @@ class Stage:
     kind : str
         Priority class, one of ``PRIORITY_CLASSES``.
     fn : callable
-        The work; called with no arguments, its return value is ignored. An exception it raises
-        is contained by the executive (counted and reported), never propagated.
+        The work; called with the job's ``context`` if it has one, else with no arguments; its
+        return value is ignored. An exception it raises is contained by the executive (counted
+        and reported), never propagated.
     lane : str | None
         Ordering lane: stages sharing a lane run in job (time) order. Defaults to ``kind``;
         give each filter its own lane (e.g. ``"filter:optical"``) when filters may progress
@@ -51,14 +52,24 @@ class Stage:
     """
 
     kind: StageKind
-    fn: Callable[[], object]
+    fn: Callable[..., object]
     lane: str | None = None
     cost: float | None = None
     name: str | None = None
+    #: the lane this stage queues in, and the label it reports under (set from the fields above;
+    #: read for every stage the executive runs, so worked out once)
+    lane_key: str = field(init=False, repr=False, compare=False)
+    label: str = field(init=False, repr=False, compare=False)
+    #: rank of the priority class (lower runs first)
+    rank: int = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        lane_key = self.lane if self.lane is not None else self.kind
+        object.__setattr__(self, "lane_key", lane_key)
+        object.__setattr__(self, "label", self.name if self.name is not None else lane_key)
         if self.kind not in PRIORITY_RANK:
             raise JobError(f"stage kind {self.kind!r} is not one of {', '.join(PRIORITY_CLASSES)}")
+        object.__setattr__(self, "rank", PRIORITY_RANK[self.kind])
         if not callable(self.fn):
             raise JobError(f"stage {self.label!r}: fn is not callable")
         if self.cost is not None:
@@ -67,16 +78,6 @@ class Stage:
             if not math.isfinite(self.cost) or self.cost < 0.0:
                 raise JobError(f"stage {self.label!r}: cost must be finite and >= 0, got {self.cost!r}")
 
-    @property
-    def lane_key(self) -> str:
-        return self.lane if self.lane is not None else self.kind
-
-    @property
-    def label(self) -> str:
-        if self.name is not None:
-            return self.name
-        return self.lane if self.lane is not None else self.kind
-
 
 @dataclass(frozen=True, slots=True)
 class Job:
@@ -84,16 +85,22 @@ class Job:
 
     ``t`` orders the backlog (FIFO by measurement time) and decides the frame from which the job
     is due: a job runs only in frames ending at or after ``t``. ``tag`` is free text carried into
-    error reports (e.g. the measurement sequence number).
+    error reports (e.g. the measurement sequence number). ``context``, when not None, is handed
+    to every stage's ``fn``: jobs of the same kind can then share one tuple of stages, built and
+    validated once, and differ only in what they work on (one measurement's data).
     """
 
     t: float
     stages: tuple[Stage, ...]
     tag: str = ""
+    context: object = None
 
     def __post_init__(self) -> None:
-        if isinstance(self.t, bool) or not isinstance(self.t, (int, float)) or not math.isfinite(self.t):
-            raise JobError(f"job time tag must be a finite number, got {self.t!r}")
+        t = self.t
+        if type(t) is not float and (isinstance(t, bool) or not isinstance(t, (int, float))):
+            raise JobError(f"job time tag must be a finite number, got {t!r}")
+        if not math.isfinite(t):
+            raise JobError(f"job time tag must be a finite number, got {t!r}")
         if not isinstance(self.stages, tuple) or not self.stages:
             raise JobError("a job needs a non-empty tuple of stages")
         for stage in self.stages:

@@ -54,7 +54,7 @@ class BankRecord:
     @property
     def n(self) -> int:
         """Measurement dimension n_j (Lubey & Ely 2022 §3.2: the mean of a χ²_{n_j} variable)."""
-        return int(self.residual.shape[1])
+        return self.residual.shape[1]
 
     @property
     def size(self) -> int:

@@ -22,6 +22,7 @@ Rules shared by all networks (enforced here, so each network only writes its own
 from __future__ import annotations
 
 import dataclasses
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, ClassVar, Sequence
@@ -106,6 +107,14 @@ class WeightsUpdate:
 
 def log_normalize(log_w: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Log-sum-exp normalisation over ``mask``; entries outside the mask become −inf."""
+    if mask.ndim == 1 and False not in mask.tolist():
+        # Every filter active (the usual case): no masking, the largest term found in Python.
+        # exp, sum and log stay numpy's, so the result is the masked form's to the bit.
+        top = max(log_w.tolist())
+        terms = np.exp(log_w - top)
+        # numpy adds up to three terms left to right, as Python does (more: in its own order)
+        total = sum(terms.tolist()) if terms.size <= 3 else terms.sum()
+        return log_w - (top + np.log(total))
     out = np.full(log_w.shape, -np.inf)
     if not np.any(mask):
         return out
@@ -172,6 +181,50 @@ def reenter_probabilities(p: np.ndarray, old_mask: np.ndarray, new_mask: np.ndar
     out[entering] = share
     out[kept] = p[kept] / total * (1.0 - share * np.count_nonzero(entering))
     return out
+
+
+def _finite(values: np.ndarray) -> bool:
+    return all(map(math.isfinite, values.ravel().tolist()))
+
+
+def check_record(record: BankRecord, filters: tuple[str, ...]) -> np.ndarray:
+    """Validate a bank record for networks over ``filters``; return its active mask (N,) bool.
+
+    The record's filter names must be ``filters`` in order, its arrays of the shapes it declares,
+    finite, with non-negative chi-squares — otherwise :class:`GatingInputError`. Checked once per
+    record and shared by every network of the bank (:meth:`GatingNetwork.update_checked`); the
+    arrays are a few numbers, so Python on their values is cheaper than numpy reductions.
+    """
+    if not isinstance(record, BankRecord):
+        raise GatingInputError(f"expected a BankRecord, got {type(record).__name__}")
+    if record.filters is not filters and tuple(record.filters) != filters:
+        raise GatingInputError(f"record filters {tuple(record.filters)!r} differ from the bank {filters!r}")
+    n_f = len(filters)
+    res = np.asarray(record.residual)
+    if res.ndim != 2 or res.shape[0] != n_f or res.shape[1] < 1:
+        raise GatingInputError(f"residual must have shape ({n_f}, n), got {res.shape}")
+    n = res.shape[1]
+    S = np.asarray(record.S)
+    if S.shape != (n_f, n, n):
+        raise GatingInputError(f"S must have shape ({n_f}, {n}, {n}), got {S.shape}")
+    chi2 = np.asarray(record.chi2)
+    processed = np.asarray(record.processed)
+    if chi2.shape != (n_f,) or processed.shape != (n_f,):
+        raise GatingInputError(f"chi2 and processed must have shape ({n_f},)")
+    try:
+        finite = _finite(res) and _finite(S) and _finite(chi2)
+    except TypeError:  # not numbers at all
+        finite = False
+    if not finite:
+        raise GatingInputError(f"non-finite residual, S or chi2 in record seq={record.seq}")
+    if min(chi2.tolist()) < 0.0:
+        raise GatingInputError(f"negative chi-square in record seq={record.seq}")
+    if not math.isfinite(record.t):
+        raise GatingInputError("non-finite time tag")
+    mask = record.active_mask()
+    if mask.shape != (n_f,):
+        raise GatingInputError(f"active mask must have shape ({n_f},)")
+    return mask
 
 
 class GatingNetwork(ABC):
@@ -261,32 +314,7 @@ class GatingNetwork(ABC):
 
     # ------------------------------------------------------------------ records
     def _check_record(self, record: BankRecord) -> np.ndarray:
-        if not isinstance(record, BankRecord):
-            raise GatingInputError(f"expected a BankRecord, got {type(record).__name__}")
-        if tuple(record.filters) != self.filters:
-            raise GatingInputError(f"record filters {tuple(record.filters)!r} differ from the bank {self.filters!r}")
-        n_f = len(self.filters)
-        res = np.asarray(record.residual)
-        if res.ndim != 2 or res.shape[0] != n_f or res.shape[1] < 1:
-            raise GatingInputError(f"residual must have shape ({n_f}, n), got {res.shape}")
-        n = res.shape[1]
-        S = np.asarray(record.S)
-        if S.shape != (n_f, n, n):
-            raise GatingInputError(f"S must have shape ({n_f}, {n}, {n}), got {S.shape}")
-        chi2 = np.asarray(record.chi2)
-        processed = np.asarray(record.processed)
-        if chi2.shape != (n_f,) or processed.shape != (n_f,):
-            raise GatingInputError(f"chi2 and processed must have shape ({n_f},)")
-        if not (np.all(np.isfinite(res)) and np.all(np.isfinite(S)) and np.all(np.isfinite(chi2))):
-            raise GatingInputError(f"non-finite residual, S or chi2 in record seq={record.seq}")
-        if np.any(chi2 < 0.0):
-            raise GatingInputError(f"negative chi-square in record seq={record.seq}")
-        if not np.isfinite(record.t):
-            raise GatingInputError("non-finite time tag")
-        mask = record.active_mask()
-        if mask.shape != (n_f,):
-            raise GatingInputError(f"active mask must have shape ({n_f},)")
-        return mask
+        return check_record(record, self.filters)
 
     def update(self, record: BankRecord) -> WeightsUpdate | None:
         """Consume one record; return new weights when the network produces them, else None.
@@ -299,8 +327,14 @@ class GatingNetwork(ABC):
         except GatingInputError:
             self._rejected += 1
             raise
-        if not np.array_equal(mask, self._active):
-            if not np.any(mask):
+        return self.update_checked(record, mask)
+
+    def update_checked(self, record: BankRecord, mask: np.ndarray) -> WeightsUpdate | None:
+        """:meth:`update` of a record :func:`check_record` has already accepted for this bank,
+        ``mask`` being what it returned: a core running several networks on one record checks
+        it once, not once per network."""
+        if mask.tobytes() != self._active.tobytes():  # both (N,) bool: cheaper than array_equal
+            if not mask.any():
                 self._rejected += 1
                 raise GatingInputError("every filter of the bank is disabled")
             self._activation_changed(self._active.copy(), mask.copy())
@@ -309,6 +343,10 @@ class GatingNetwork(ABC):
         if result is not None:
             self._updates += 1
         return result
+
+    def refuse(self) -> None:
+        """Count a record refused for this network by a :func:`check_record` made on its behalf."""
+        self._rejected += 1
 
     def _make_update(self, record: BankRecord, batch: int, weights: np.ndarray, **extra: Any) -> WeightsUpdate:
         return WeightsUpdate(

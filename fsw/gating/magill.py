@@ -46,6 +46,7 @@ only process a subset of the data types).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -73,12 +74,26 @@ class MagillParams:
     prior: tuple[float, ...] = spec((), doc="a-priori probabilities f(α_i), bank order; empty: uniform 1/N")
 
 
+#: ln 2π of the Gaussian normaliser, computed as numpy computes it
+LOG_2PI = float(np.log(2.0 * np.pi))
+
+
 def gaussian_log_likelihood(record: BankRecord) -> np.ndarray:
     """ln f(y_j | α_i) of Lubey & Ely 2022 eq. 4 for every filter; rejects a non-positive-definite S."""
+    n = record.n
+    if n == 1:
+        # A scalar measurement (range, Doppler): |S| is S itself. slogdet of a 1×1 matrix takes
+        # the C library's log of it, as math.log does, so this is slogdet's result to the bit
+        # without its per-call cost.
+        variances = record.S.ravel().tolist()
+        if min(variances) <= 0.0:
+            raise GatingInputError(f"innovation covariance not positive definite in record seq={record.seq}")
+        norm = LOG_2PI  # n · ln 2π with n = 1
+        return np.array([-0.5 * (c + math.log(v) + norm) for c, v in zip(record.chi2.tolist(), variances)])
     sign, logdet = np.linalg.slogdet(np.asarray(record.S, dtype=float))
     if np.any(sign <= 0.0):
         raise GatingInputError(f"innovation covariance not positive definite in record seq={record.seq}")
-    return -0.5 * (np.asarray(record.chi2, dtype=float) + logdet + record.n * np.log(2.0 * np.pi))
+    return -0.5 * (np.asarray(record.chi2, dtype=float) + logdet + n * np.log(2.0 * np.pi))
 
 
 def chaer1997_log_density(record: BankRecord) -> np.ndarray:
@@ -153,7 +168,8 @@ class MagillNetwork(GatingNetwork):
         self._logp = logp
 
     def _step(self, loglik: np.ndarray, mask: np.ndarray) -> None:
-        logp = log_normalize(self._logp + np.where(mask, loglik, 0.0), mask)
+        evidence = loglik if False not in mask.tolist() else np.where(mask, loglik, 0.0)
+        logp = log_normalize(self._logp + evidence, mask)
         self._logp = apply_lower_bound(logp, mask, self.params.lower_bound)
 
     def _update(self, record: BankRecord, active: np.ndarray) -> WeightsUpdate:
