@@ -60,6 +60,7 @@ class Environment:
         self._stations: OrderedDict[tuple[str, float], tuple[np.ndarray, ...]] = OrderedDict()
         self._station_arrays: dict[tuple[str, float], np.ndarray] = {}
         self._station_names: dict[str, str] = {}  # spellings seen -> canonical name
+        self._last_node: tuple[float, str, np.ndarray] = (np.nan, "", np.empty((4, 3)))
 
     # -- planets --------------------------------------------------------------------------------
     def _table_for(self, t_lo: float, t_hi: float) -> EphemerisTable:
@@ -163,6 +164,7 @@ class Environment:
                 node = (r0[j], kxr[j], kkr[j], dv[j])
                 self._stations[(name, tj)] = node
                 self._station_arrays[(name, tj)] = np.ascontiguousarray(np.stack(node))
+            self._last_node = (np.nan, "", self._last_node[2])  # it may be evicted below
             while len(self._stations) > 256:
                 evicted, _ = self._stations.popitem(last=False)
                 self._station_arrays.pop(evicted, None)
@@ -173,11 +175,16 @@ class Environment:
         """The station's grid node nearest t_ref as a (4, 3) array [r0, k × r0, k (k·r0), dv]
         and its epoch (what :meth:`station_gcrs` rotates; for the compiled light-time kernel)."""
         t_grid = round(t_ref / _STATION_GRID_S) * _STATION_GRID_S
+        last = self._last_node
+        if last[0] == t_grid and last[1] == name:
+            return last[2], t_grid
         key = (name, t_grid)
         node = self._station_arrays.get(key)
         if node is None or key not in self._stations:
             self._station_node(name, t_grid)
             node = self._station_arrays[key]
+        # a pass asks for the same node for ten minutes of measurements
+        self._last_node = (t_grid, name, node)
         return node, t_grid
 
     def hermite_nodes(self, t_lo: float, t_hi: float) -> tuple[np.ndarray, float, float]:
