@@ -44,6 +44,7 @@ from fsw.kernels.count_start import count_start_from_leg
 from fsw.kernels.time_update import time_update
 from fsw.kernels.joseph_update import joseph_update
 from fsw.models.propagator import Propagator
+from fsw.models.radiometric import UplinkWork
 from fsw.models.stochastic import apply_ecrv_step, batch_boundaries, ecrv_factors
 
 def union_layout(filters: tuple[FilterConfig, ...]) -> StateLayout:
@@ -86,6 +87,17 @@ class _Batched:
             if self.sigma[i] > 0.0 and abs(k - round(k)) * L < 1e-6:
                 m[i], q[i] = ecrv_factors(float(L), self.tau[i], float(self.sigma[i]))
         return m, q
+
+
+class DopplerWork:
+    """Arrays a Doppler prediction fills for every count (read before the next one): both ends'
+    [r, v] (2, N, 6), their epochs, the start's sensitivity and the light-time solution."""
+
+    def __init__(self, N: int, nq: int):
+        self.z = np.empty((2, N, 6))
+        self.tt = np.empty(2)
+        self.Yb = np.empty((N, 6, 6 + nq))
+        self.uplinks = UplinkWork(2, N)
 
 
 class EKFStack:
@@ -168,6 +180,9 @@ class EKFStack:
                             (rows * nq + np.array(pairs, dtype=np.int64)).ravel(),
                             (rows * n + np.array([feeds[qi][1] for qi in pairs], dtype=np.int64)).ravel())
         self._clock = (L.slices["clock"].start, L.slices["clock"].stop) if L.has("clock") else None
+        # the drivers of a state array the stack made and has not written since: the time update
+        # copies the parameter columns, so its output has its input's q
+        self._q_known: tuple[np.ndarray | None, np.ndarray] = (None, np.empty((N, nq)))
         # the column of Y that feeds each state column of Φ's dynamics rows (−1: none)
         self._phi_source = np.full(n, -1, dtype=np.int64)
         self._phi_source[0:6] = np.arange(6)
@@ -207,6 +222,7 @@ class EKFStack:
         ]
         self._any_adaptive = any(aq is not None for aq in self.adaptive_q)
         self._no_gate = np.full(N, np.inf)
+        self.doppler_work = DopplerWork(N, nq)
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
@@ -229,7 +245,9 @@ class EKFStack:
         x = self.x
         if not x.flags.c_contiguous:
             x = np.ascontiguousarray(x)
-        q = self.drivers(x)
+        known, q = self._q_known
+        if known is not x:
+            q = self.drivers(x)
         N, n = x.shape
         z1 = x[:, 0:6].copy()
         Y = np.empty((N, 6, 6 + q.shape[1]))
@@ -241,6 +259,7 @@ class EKFStack:
         time_update(x, z1, P_prior, Y, self._phi_source, c0, c1, h, self.clock_q, self.snc_psd, x_new, P)
         # x is no longer the stack's state and nothing else writes it: it serves as the leg's start
         self._last_leg = (self.t, t1, x, z1, q, Y)
+        self._q_known = (x_new, q)
         self.x = x_new
         self.P = P
         self.t = t1
@@ -254,6 +273,7 @@ class EKFStack:
 
     def _apply_events(self, t: float) -> None:
         self._last_leg = None
+        self._q_known = (None, self._q_known[1])  # x is written in place below
         for b in self.batched:
             m, q = b.factors(t)
             if np.any(q > 0.0) or np.any(m != 1.0):
@@ -333,19 +353,27 @@ class EKFStack:
         Yb = self.count_start_into(t, count_s, x, z_start)
         return z_start[:, 0:3], z_start[:, 3:6], Yb
 
-    def count_start_into(self, t: float, count_s: float, x: np.ndarray, z_start: np.ndarray) -> np.ndarray:
-        """:meth:`count_start` writing [r, v] at t − T into ``z_start`` (N, 6), C-contiguous; returns Yb."""
+    def count_start_into(self, t: float, count_s: float, x: np.ndarray, z_start: np.ndarray,
+                         Yb: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`count_start` writing [r, v] at t − T into ``z_start`` (N, 6), C-contiguous, and Yb
+        into ``Yb`` (N, 6, 6 + n_q) if given; returns Yb."""
         leg = self._last_leg
         xc = x if x.flags.c_contiguous else np.ascontiguousarray(x)
-        q = self.drivers(xc)
+        known, q = self._q_known
+        if known is not xc:
+            q = self.drivers(xc)
+            if xc is self.x:
+                self._q_known = (xc, q)
         if leg is not None and x is self.x and leg[1] == self.t == t and abs(leg[0] - (t - count_s)) < 1e-6:
             _, _, x0, z1, q_leg, Y = leg
-            Yb = np.empty(Y.shape)
+            if Yb is None or Yb.shape != Y.shape:
+                Yb = np.empty(Y.shape)
             # the kernel reads the first six columns of the states x0 and x
             count_start_from_leg(Y, x0, z1, xc, q, q_leg, z_start, Yb)
             return Yb
         z_start[:] = xc[:, 0:6]
-        Yb = np.empty((x.shape[0], 6, 6 + q.shape[1]))
+        if Yb is None:
+            Yb = np.empty((x.shape[0], 6, 6 + q.shape[1]))
         self.propagator.propagate_z(t, t - count_s, z_start, q, Yb)
         return Yb
 
@@ -403,6 +431,7 @@ class EKFStack:
             self.x = -PX[:, :, n]
             self.P = np.ascontiguousarray(PX[:, :, :n])
         elif processed.any():
+            self._q_known = (None, self._q_known[1])
             self.x[processed] = -PX[processed, :, n]
             self.P[processed] = PX[processed, :, :n]
         for i, aq in enumerate(self.adaptive_q if self._any_adaptive else ()):

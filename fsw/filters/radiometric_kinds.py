@@ -53,12 +53,15 @@ def predict_doppler(stack: EKFStack, station: str, t: float, count_s: float,
     :func:`fsw.kernels.doppler.doppler_prediction`)."""
     N, n = x.shape
     delta = np.ascontiguousarray(stack.clock_state(x, 0))
+    w = stack.doppler_work
     # both ends of the count in one light-time solution: [end, start]
-    z = np.empty((2, N, 6))
+    z = w.z
     z[0] = x[:, 0:6]
-    Yb = stack.count_start_into(t, count_s, x, z[1])
-    tt = np.array((t, t - count_s))
-    rho, ku, _, d_rho_d_delta = solve_uplinks(stack.env, station, tt, z, delta)
+    Yb = stack.count_start_into(t, count_s, x, z[1], w.Yb)
+    tt = w.tt
+    tt[0] = t
+    tt[1] = t - count_s
+    rho, ku, _, d_rho_d_delta = solve_uplinks(stack.env, station, tt, z, delta, work=w.uplinks)
     c0, c1 = stack.clock_columns or (0, 0)
     h = np.empty((N, 1))
     H = np.empty((N, 1, n))

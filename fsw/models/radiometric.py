@@ -77,24 +77,35 @@ def uplinks(env: Environment, station: str, t_tags: Iterable[float], r: np.ndarr
     return UplinkGeometry(rho=rho, d_rho_d_r=ku, d_rho_d_v=d_rho_d_v, d_rho_d_delta=d_rho_d_delta)
 
 
+class UplinkWork:
+    """Arrays :func:`solve_uplinks` fills for K epochs and N filters, kept by a caller that solves
+    the same shape for every measurement (its results are read before the next solution)."""
+
+    def __init__(self, K: int, N: int):
+        self.r_sc = np.empty((K, N, 3))
+        self.v_mars = np.empty((K, 3))
+        self.t_g = np.empty(K)
+        self.rho = np.empty((K, N))
+        self.ku = np.empty((K, N, 3))
+        self.d_rho_d_v = np.empty((K, N, 3))
+        self.d_rho_d_delta = np.empty((K, N))
+
+
 def solve_uplinks(env: Environment, station: str, tt: np.ndarray, z: np.ndarray, delta: np.ndarray,
-                  iterations: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                  iterations: int = 2, work: UplinkWork | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`uplinks` for the hot loop: time tags tt (K,), states z = [r, v] (K, N, 6) and δ (N,),
-    all float64 and C-contiguous; returns (ρ, k u, −δ k u, ∂ρ/∂δ)."""
+    all float64 and C-contiguous; returns (ρ, k u, −δ k u, ∂ρ/∂δ), in ``work``'s arrays if given."""
     K, N, _ = z.shape
     ts = tt.tolist()
     herm, t_first, step = env.hermite_nodes(min(ts) - 1.0, max(ts) + 1.0)
-    r_sc = np.empty((K, N, 3))
-    v_mars = np.empty((K, 3))
-    t_g = np.empty(K)
+    w = work if work is not None else UplinkWork(K, N)
+    r_sc, v_mars, t_g = w.r_sc, w.v_mars, w.t_g
     uplink_reception(tt, z, delta, herm, t_first, step, C_KM_S, r_sc, v_mars, t_g)
     tg = t_g.tolist()
     herm, t_first, step = env.hermite_nodes(min(tg) - 1.0, max(tg) + 1.0)
     node, t_grid = env.station_node(station, tg[0])
-    rho = np.empty((K, N))
-    ku = np.empty((K, N, 3))
-    d_rho_d_v = np.empty((K, N, 3))
-    d_rho_d_delta = np.empty((K, N))
+    rho, ku, d_rho_d_v, d_rho_d_delta = w.rho, w.ku, w.d_rho_d_v, w.d_rho_d_delta
     uplink_light_time(tt, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, OMEGA_EARTH_RAD_S,
                       GM_SUN, C_KM_S, iterations, rho, ku, d_rho_d_v, d_rho_d_delta)
     return rho, ku, d_rho_d_v, d_rho_d_delta
