@@ -32,8 +32,7 @@ from fsw.astro.constants import OMEGA_EARTH_RAD_S, SECONDS_PER_DAY
 from fsw.astro.ephemeris import Ephemeris, EphemerisError, EphemerisTable, default_ephemeris
 from fsw.astro import asteroids
 from fsw.astro.moons import MOONS, moon_state
-from fsw.astro.earth import itrs_to_gcrs_matrix
-from fsw.astro.stations import StationError, station, station_states_icrf
+from fsw.astro.stations import StationError, station, station_states_and_pole_icrf
 from fsw.models.vector import cross
 
 #: Bodies of the table, in row order.
@@ -153,17 +152,16 @@ class Environment:
         hit = self._stations.get(key)
         if hit is None:
             grid = t_grid + _STATION_GRID_S * np.arange(_STATION_PREFETCH)
-            r0, v0 = station_states_icrf(name, grid)
-            k = itrs_to_gcrs_matrix(grid)[:, :, 2]
+            r0, v0, k = station_states_and_pole_icrf(name, grid)
             kxr = cross(k, r0)
             kkr = k * np.vecdot(k, r0)[:, None]
             # what the rotation about k does not explain (pole motion, rate terms, ~1e-8 km/s)
             # is carried as a constant velocity
             dv = v0 - OMEGA_EARTH_RAD_S * kxr
+            stacked = np.stack((r0, kxr, kkr, dv), axis=1)  # (prefetch, 4, 3): node j is stacked[j]
             for j, tj in enumerate(grid.tolist()):
-                node = (r0[j], kxr[j], kkr[j], dv[j])
-                self._stations[(name, tj)] = node
-                self._station_arrays[(name, tj)] = np.ascontiguousarray(np.stack(node))
+                self._stations[(name, tj)] = (r0[j], kxr[j], kkr[j], dv[j])
+                self._station_arrays[(name, tj)] = stacked[j]
             self._last_node = (np.nan, "", self._last_node[2])  # it may be evicted below
             while len(self._stations) > 256:
                 evicted, _ = self._stations.popitem(last=False)
