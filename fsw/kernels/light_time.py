@@ -140,3 +140,26 @@ def uplink_light_time(t_tags, t_g, r_sc, z, v_mars, delta, herm, t_first, step, 
                 dd += kuj * (z[k, i, 3 + j] + v_mars[k, j] - (V0[j] + (2.0 * A0[j]) * dt))
             rho[k, i] = rr
             d_rho_d_delta[k, i] = -dd
+
+
+@njit("int64(float64[::1], float64[:, :, ::1], float64[::1], float64[:, :, ::1], float64, float64, float64, float64, "
+      "float64[:, ::1], float64, float64, float64, float64, int64, float64[:, :, ::1], float64[:, ::1], float64[::1], "
+      "float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, ::1])", cache=True)
+def uplink_solution(t_tags, z, delta, herm, t_first, step, lo_ok, hi_ok, node, t_grid, omega, gm_sun, c_km_s,
+                    iterations, r_sc, v_mars, t_g, rho, ku, d_rho_d_v, d_rho_d_delta):
+    """:func:`uplink_reception` then :func:`uplink_light_time` in one call, when the transmit epochs
+    t_g lie where the caller's table and station node serve: the table's interior [lo_ok, hi_ok]
+    (with the 1 s margin the table lookup asks for) and within 300 s less 1 ms of the node's epoch
+    t_grid (the node nearest t_g[0]; the 1 ms keeps clear of a tie). Returns 1 with only the
+    reception solved otherwise (the caller looks up table and node for t_g and finishes)."""
+    uplink_reception(t_tags, z, delta, herm, t_first, step, c_km_s, r_sc, v_mars, t_g)
+    lo = t_g[0]
+    hi = t_g[0]
+    for k in range(1, t_g.shape[0]):
+        lo = min(lo, t_g[k])
+        hi = max(hi, t_g[k])
+    if lo - 1.0 < lo_ok or hi + 1.0 > hi_ok or abs(t_g[0] - t_grid) >= 299.999:
+        return 1
+    uplink_light_time(t_tags, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, omega, gm_sun, c_km_s,
+                      iterations, rho, ku, d_rho_d_v, d_rho_d_delta)
+    return 0

@@ -185,6 +185,18 @@ class Environment:
         self._last_node = (t_grid, name, node)
         return node, t_grid
 
+    def last_station_node(self, name: str) -> tuple[np.ndarray, float] | None:
+        """The node :meth:`station_node` last returned and its epoch, if it was for ``name`` (the
+        node it returns again for any t_ref nearest that epoch)."""
+        t_grid, last, node = self._last_node
+        return (node, t_grid) if last == name else None
+
+    def hermite_window(self, t_lo: float, t_hi: float) -> tuple[np.ndarray, float, float, float, float]:
+        """:meth:`hermite_nodes` and the span [lo, hi] inside which later lookups use the same
+        table (outside it the table is rebuilt first)."""
+        tab = self._table_for(t_lo, t_hi)
+        return self._hermite, tab.t_first, tab.step, tab.t_first + 3 * self._step, tab.t_last - 3 * self._step
+
     def hermite_nodes(self, t_lo: float, t_hi: float) -> tuple[np.ndarray, float, float]:
         """The table's Hermite nodes (intervals, 4, 15) covering [t_lo, t_hi], its first epoch and
         step (what :meth:`states_many` multiplies; for the compiled light-time kernel)."""

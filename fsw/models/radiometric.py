@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsw.astro.constants import C_KM_S, GM_SUN, OMEGA_EARTH_RAD_S
-from fsw.kernels.light_time import uplink_light_time, uplink_reception
+from fsw.kernels.light_time import uplink_light_time, uplink_reception, uplink_solution
 from fsw.models.environment import Environment
 
 
@@ -98,10 +98,18 @@ def solve_uplinks(env: Environment, station: str, tt: np.ndarray, z: np.ndarray,
     all float64 and C-contiguous; returns (ρ, k u, −δ k u, ∂ρ/∂δ), in ``work``'s arrays if given."""
     K, N, _ = z.shape
     ts = tt.tolist()
-    herm, t_first, step = env.hermite_nodes(min(ts) - 1.0, max(ts) + 1.0)
+    herm, t_first, step, lo_ok, hi_ok = env.hermite_window(min(ts) - 1.0, max(ts) + 1.0)
     w = work if work is not None else UplinkWork(K, N)
     r_sc, v_mars, t_g = w.r_sc, w.v_mars, w.t_g
-    uplink_reception(tt, z, delta, herm, t_first, step, C_KM_S, r_sc, v_mars, t_g)
+    last = env.last_station_node(station)
+    if last is not None:
+        # usually the transmit epochs need neither another table nor another node: one call
+        if uplink_solution(tt, z, delta, herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S,
+                           GM_SUN, C_KM_S, iterations, r_sc, v_mars, t_g, w.rho, w.ku, w.d_rho_d_v,
+                           w.d_rho_d_delta) == 0:
+            return w.rho, w.ku, w.d_rho_d_v, w.d_rho_d_delta
+    else:
+        uplink_reception(tt, z, delta, herm, t_first, step, C_KM_S, r_sc, v_mars, t_g)
     tg = t_g.tolist()
     herm, t_first, step = env.hermite_nodes(min(tg) - 1.0, max(tg) + 1.0)
     node, t_grid = env.station_node(station, tg[0])
