@@ -25,10 +25,15 @@ fsw:
 """
 
 
+# The run must still be going when it is stopped: the simulator is paced to ~40 s for 20 days
+# (the FSW flies the same arc in a few seconds of CPU).
+RATE = 20 * 86400 / 40.0
+
+
 def _start(tmp_path, run_id: str) -> subprocess.Popen:
     (tmp_path / "s.yaml").write_text(LONG)
     return subprocess.Popen([sys.executable, "-m", "tools.cli", "run", "--scenario", str(tmp_path / "s.yaml"),
-                             "--out", str(tmp_path / "out"), "--run-id", run_id],
+                             "--out", str(tmp_path / "out"), "--run-id", run_id, "--rate", f"{RATE:g}"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -100,3 +105,12 @@ def test_a_killed_launcher_leaves_no_orphans(tmp_path):
         for pid in _processes_of("endings-kill"):
             os.kill(pid, signal.SIGKILL)
     assert left == [], f"still running 5 s after the launcher was killed: {left}"
+
+
+@pytest.mark.parametrize("rate", ["0", "-5", "nan", "inf"])
+def test_a_bad_rate_is_one_line_exit_2(tmp_path, rate):
+    proc = subprocess.run([sys.executable, "-m", "tools.cli", "run", "--rate", rate, "--out", str(tmp_path / "o"),
+                           "--quiet"], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip() == "navbank run: --rate must be a number > 0"
+    assert not (tmp_path / "o").exists()  # refused before anything started

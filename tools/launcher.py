@@ -117,7 +117,8 @@ def last_words(tail: list[str]) -> str:
 
 
 def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[str, str],
-             credentials: Path | None = None, live: tuple[str, int] | None = None) -> list[str]:
+             credentials: Path | None = None, live: tuple[str, int] | None = None,
+             rate: float | None = None) -> list[str]:
     base = [sys.executable, "-m", "tools.cli"]
     before = [eps[r] for r in ROLES[: ROLES.index(role)]]
     connect = [a for ep in before for a in ("--connect", ep)]
@@ -131,8 +132,9 @@ def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[st
     if role == "fsw":
         return [*base, "fsw", "--scenario", str(cfg_path), "--run-id", run_id, "--checkpoint", str(out_dir / CHECKPOINT),
                 "--hold-for-logger", f"{HOLD_FOR_LOGGER_S:g}", *net]
+    paced = [] if rate is None else ["--rate", repr(rate)]
     return [*base, "sim", "--scenario", str(cfg_path), "--run-id", run_id, "--hold-for-logger", f"{HOLD_FOR_LOGGER_S:g}",
-            *net]
+            *paced, *net]
 
 
 #: The FSW's checkpoint file in the run directory (``fsw.checkpoint`` sets the cadence).
@@ -220,9 +222,10 @@ def _stop(children: list[Child]) -> None:
 def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float = 3600.0,
            echo: Callable[[str], None] | None = None, max_restarts: int = DEFAULT_MAX_RESTARTS,
            restarts: list[Restart] | None = None, authenticated: bool = True,
-           live: tuple[str, int] | None = None) -> dict[str, int]:
+           live: tuple[str, int] | None = None, rate: float | None = None) -> dict[str, int]:
     """Run the three processes for ``cfg`` (already resolved: seed and initial state fixed);
-    ``live``: (host, port) of the logger's Foxglove WebSocket live view.
+    ``live``: (host, port) of the logger's Foxglove WebSocket live view; ``rate``: the simulator
+    publishes at that many times real time (default: as fast as the FSW takes it).
 
     An FSW that dies is restarted from its last checkpoint, a logger that dies on a new segment
     (:func:`segment_path`), each at most ``max_restarts`` times; each restart is appended to
@@ -246,7 +249,7 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
                 shutil.rmtree(private, ignore_errors=True)
             raise RunFailed(f"cannot make the run's credentials: {_errno_text(exc)}") from None
     try:
-        return _launch(cfg_path, run_id, out_dir, timeout_s, echo, max_restarts, restarts, credentials, live)
+        return _launch(cfg_path, run_id, out_dir, timeout_s, echo, max_restarts, restarts, credentials, live, rate)
     finally:
         if private is not None:
             shutil.rmtree(private, ignore_errors=True)  # our own temporary directory
@@ -254,7 +257,7 @@ def launch(cfg: ScenarioConfig, run_id: str, out_dir: Path, *, timeout_s: float 
 
 def _launch(cfg_path: Path, run_id: str, out_dir: Path, timeout_s: float, echo: Callable[[str], None] | None,
             max_restarts: int, restarts: list[Restart], credentials: Path | None,
-            live: tuple[str, int] | None = None) -> dict[str, int]:
+            live: tuple[str, int] | None = None, rate: float | None = None) -> dict[str, int]:
     ports = free_tcp_ports(len(ROLES))
     proto = "tcp" if credentials is None else "tls"
     eps = {r: f"{proto}/127.0.0.1:{p}" for r, p in zip(ROLES, ports)}
@@ -265,7 +268,7 @@ def _launch(cfg_path: Path, run_id: str, out_dir: Path, timeout_s: float, echo: 
     wall0 = time.monotonic()
 
     def start(role: str, extra: tuple[str, ...] = (), log_name: str | None = None) -> Child:
-        proc = subprocess.Popen([*_command(role, cfg_path, run_id, out_dir, eps, credentials, live), *extra], stdout=subprocess.PIPE,
+        proc = subprocess.Popen([*_command(role, cfg_path, run_id, out_dir, eps, credentials, live, rate), *extra], stdout=subprocess.PIPE,
                                 stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True, env=env,
                                 start_new_session=True)
         child = Child(role, proc, out_dir / (log_name or f"{role}.log"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 from typing import TYPE_CHECKING, Any, Callable
 import sys
@@ -58,6 +59,9 @@ def add_arguments(p) -> None:
                         f"each (default {DEFAULT_MAX_RESTARTS}; 0: never)")
     p.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
                    help="FSW checkpoint every N measurements (default: the scenario's fsw.checkpoint.every_measurements)")
+    p.add_argument("--rate", type=float, default=None, metavar="X",
+                   help="the simulator publishes at X times real time, e.g. 86400 for a simulated day per second "
+                        "while watching with --live (default: as fast as the FSW takes it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--plain-tcp", action="store_true",
                    help="plain TCP links without authentication (default: mutual TLS, access control and signed "
@@ -203,6 +207,8 @@ def run(args) -> int:
     cfg = with_budget(scenario_from_args(args), args.budget_mode, args.budget, args.cpu_scale)
     if args.max_restarts < 0:
         raise UsageError("--max-restarts must be >= 0")
+    if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
+        raise UsageError("--rate must be a number > 0")
     if args.checkpoint_every is not None:
         if args.checkpoint_every < 0:
             raise UsageError("--checkpoint-every must be >= 0")
@@ -231,7 +237,7 @@ def run(args) -> int:
     restarts: list[Restart] = []
     try:
         launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo, max_restarts=args.max_restarts, restarts=restarts,
-               authenticated=not args.plain_tcp, live=live)
+               authenticated=not args.plain_tcp, live=live, rate=args.rate)
         if bar is not None:
             advance_to(bar, bar.total)  # the last measurement may come a little before the span's end
     except RunFailed as exc:
