@@ -81,6 +81,7 @@ CASES = [
     ("replay", ["replay", "empty.mcap", "--rerun"], "--json", "afile/diff.json"),
     ("calibrate", ["calibrate", "--scenario", "short.yaml", "--seeds", "1"], "--out-dir", "afile/cal"),
     ("consistency", ["consistency", "--scenario", "short.yaml", "--seeds", "1"], "--out", "afile/c.json"),
+    ("false-alarms", ["false-alarms", "--scenario", "short.yaml", "--seeds", "1"], "--out", "afile/f.json"),
 ]
 
 

@@ -160,9 +160,27 @@ def test_batch_without_data_of_one_kind_and_flush():
     for r in more:
         assert net.update(r) is None
     assert net.state_dict()["pending"] == 12
+    net.set_param("final_batch_min", 0.5)
+    # a 12-of-40 tail is under half a batch: its weights would be mostly the last batch's
+    assert net.flush() is None and net.state_dict()["pending"] == 12
+    net.set_param("final_batch_min", 0.0)  # the default: every partial batch closes (Lubey & Ely 2022 §3.2)
     flushed = net.flush()
     assert flushed is not None and flushed.batch == 1 and flushed.seq == more[-1].seq
     assert net.flush() is None
+
+
+def test_end_of_arc_tail_closes_from_half_a_batch():
+    rng = np.random.default_rng(11)
+    names, recs = mixed_stream(rng, 30, 0)
+    short = make_network("chi2", names, {"batch_size": 40, "final_batch_min": 0.5})
+    half = make_network("chi2-two-sided", names, {"batch_size": 40, "final_batch_min": 0.5})
+    for r in recs[:19]:
+        assert short.update(r) is None
+    for r in recs[:20]:
+        assert half.update(r) is None
+    assert short.flush() is None
+    closed = half.flush()
+    assert closed is not None and closed.batch == 0 and closed.seq == recs[19].seq
 
 
 def test_reset_and_parameters():

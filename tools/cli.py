@@ -39,6 +39,7 @@ COMMANDS = (
     "tools.commands.tune",
     "tools.commands.validation_report",
     "tools.commands.consistency",
+    "tools.commands.false_alarms",
 )
 
 

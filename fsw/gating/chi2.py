@@ -68,6 +68,10 @@ class Chi2Params:
     prior: tuple[float, ...] = spec(
         (), doc="a-priori weights p_0 (bank order, summing to 1); empty: 1/N (Lubey & Ely 2022 §3.2)", ge=0.0
     )
+    final_batch_min: float = spec(
+        0.0, doc="at the end of the arc, close a partial batch only if it holds at least this fraction of M "
+        "(a shorter tail's weights are mostly the previous batch's, a duplicate detection vote)", ge=0.0, le=1.0
+    )
 
 
 def _memory_inverse(W: np.ndarray) -> np.ndarray:
@@ -268,8 +272,17 @@ class Chi2Network(GatingNetwork):
 
     def flush(self) -> WeightsUpdate | None:
         """Close the current partial batch now (e.g. at the end of a data arc, Lubey & Ely 2022 §3.2:
-        "batches can be split up by other means"); None if it is empty."""
-        if self._count == 0:
+        "batches can be split up by other means"); None if it is empty or holds fewer than
+        ``final_batch_min`` M measurements.
+
+        Why a short tail stays open: eq. 8 blends the previous weights and the batch's evidence in
+        the ratio W̄⁻¹ : G_k, and G_k grows with the batch. With σ_W = 0.05 (W̄⁻¹ = 400) a full batch
+        (G ≈ 1100) keeps 27 % of the previous weights, the ~170-measurement tail that ends the
+        InSight arc 70 %: its weights repeat the last full batch's excursion, and the detector's
+        k-of-n rule counted that repeat as a second, independent exceedance — over nominal seeds
+        the closing tail exceeded the threshold several times as often as a full batch, which
+        piled false alarms up at entry (docs/validation.md, "False alarms near entry")."""
+        if self._count == 0 or self._count < self.params.final_batch_min * self.params.batch_size:
             return None
         return self._complete_batch()
 

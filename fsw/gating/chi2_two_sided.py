@@ -90,6 +90,9 @@ class Chi2TwoSidedParams:
     prior: tuple[float, ...] = spec(
         (), doc="a-priori weights p_0 (bank order, summing to 1); empty: 1/N (Lubey & Ely 2022 §3.2)", ge=0.0
     )
+    final_batch_min: float = spec(
+        0.0, doc="at the end of the arc, close a partial batch only if it holds at least this fraction of M", ge=0.0, le=1.0
+    )
 
 
 class Chi2TwoSidedNetwork(Chi2Network):

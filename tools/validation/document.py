@@ -612,9 +612,16 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
     sections.append(model_differences_section())
     if (campaigns_dir / CONSISTENCY_FILE).is_file():
         sections.append(consistency_section(campaigns_dir / CONSISTENCY_FILE))
+    from tools.validation import false_alarm_epochs
+    from tools.validation.clock_frequency import clock_frequency_section
+
+    if (campaigns_dir / false_alarm_epochs.FILE).is_file():
+        sections.append(false_alarm_epochs.section(campaigns_dir / false_alarm_epochs.FILE, fig_dir, out_dir))
+    sections.append(clock_frequency_section())
     # the documented procedure, whatever directories this copy was generated from
     commands = [f"navbank campaign {n} --out campaigns/{n}" for n in CAMPAIGNS]
     commands.append(CONSISTENCY_COMMAND)
+    commands.append(false_alarm_epochs.COMMAND)
     commands.append("navbank validation-report --campaigns campaigns --out docs")
     text = render(sections, generated=time.strftime("%Y-%m-%d"), commands=commands)
     path = out_dir / "validation.md"

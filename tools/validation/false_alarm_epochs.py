@@ -1,0 +1,164 @@
+"""When nominal runs false-alarm: the declaration epochs of the onboard chi2 detector over nominal seeds.
+
+Each seed flies the scenario without its fault in process (``tools.inprocess``, the FSW core's own
+code) with the chi-square network closing every partial batch at the end of the arc
+(``final_batch_min: 0``, Lubey & Ely 2022 §3.2), and keeps the network's weight updates. The
+shipped detector (the scenario's calibration) is then replayed on them twice: on every update, as
+the FSW judged before, and without a closing tail shorter than half a batch, as the FSW judges with
+``final_batch_min: 0.5``. The detector's verdicts depend on nothing but the weights, so one flight
+per seed gives both. The size of a batch is read from its statistic: the network's G_k,i has
+expectation Σ n_j over the batch (the §3.2 substitution scores an unprocessed measurement as its
+dimension), so Σ_i G_k,i of the tail against that of the batch before it is the tail's fraction.
+
+Run: ``navbank false-alarms --seeds 100 --out campaigns/false-alarm-epochs.json``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import multiprocessing
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tools.validation.section import Section, table
+
+FILE = "false-alarm-epochs.json"
+COMMAND = "navbank false-alarms --seeds 100 --out campaigns/false-alarm-epochs.json"
+DAY = 86400.0
+#: histogram bins, days from the start of the arc (entry at 45 d): the last two are the final
+#: full batch (≈ 43.0–44.7 d) and the closing tail (44.7 d to entry)
+BINS = (0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 43.0, 44.7, 45.1)
+TAIL_FRACTION = 0.5
+
+Update = tuple[float, tuple[float, ...], tuple[float, ...]]  # (t, weights, statistic)
+
+
+def tail_is_short(updates: list[Update], fraction: float = TAIL_FRACTION) -> bool:
+    """The last update is a closing tail holding less than ``fraction`` of the batch before it."""
+    if len(updates) < 2:
+        return False
+    return float(np.sum(updates[-1][2])) < fraction * float(np.sum(updates[-2][2]))
+
+
+def declaration_day(cfg: Any, updates: list[Update], t0: float, drop_short_tail: bool) -> float | None:
+    """Day of the replayed detector's first declaration on ``updates`` (None: no declaration)."""
+    from fsw.fdir.detector import AnomalyDetector
+
+    cal = cfg.fsw.detector.calibration
+    det = AnomalyDetector(cal, cfg.fsw.families())
+    if drop_short_tail and tail_is_short(updates):
+        updates = updates[:-1]
+    for t, w, _ in updates:
+        if det.update(t, np.asarray(w, dtype=float), cal.filters).flag:
+            return (t - t0) / DAY
+    return None
+
+
+def fly(args: tuple[int, str]) -> dict[str, Any]:
+    """One nominal seed: the chi2 network's weight updates with every partial batch closed."""
+    from tools.inprocess import run_in_process
+    from tools.scenario import load_scenario, with_fault
+
+    seed, scenario = args
+    cfg = with_fault(load_scenario(scenario), "none")
+    gating = tuple(dataclasses.replace(g, params=dataclasses.replace(g.params, final_batch_min=0.0))
+                   if g.network == "chi2" else g for g in cfg.fsw.gating)
+    cfg = dataclasses.replace(cfg, fsw=dataclasses.replace(cfg.fsw, gating=gating))
+    run = run_in_process(cfg, seed, fault_label="none")
+    updates = [(w.t_s, tuple(w.weights), tuple(w.statistic)) for w in run.topic("fsw/weights/chi2")]
+    return {"seed": seed, "t0": run.summary.t0, "updates": updates}
+
+
+def summarize(flights: list[dict[str, Any]], scenario: str = "insight-approach") -> dict[str, Any]:
+    """Declaration epochs with and without the short closing tail, and their histograms."""
+    from tools.scenario import load_scenario, resolve
+
+    cfg, _ = resolve(load_scenario(scenario), flights[0]["seed"] if flights else 1)
+    out: dict[str, Any] = {"scenario": scenario, "runs": len(flights), "bins_day": list(BINS),
+                           "seeds": [f["seed"] for f in flights]}
+    for key, drop in (("every_batch", False), ("short_tail_open", True)):
+        days = {f["seed"]: declaration_day(cfg, [tuple(u) for u in f["updates"]], f["t0"], drop) for f in flights}
+        epochs = {s: d for s, d in days.items() if d is not None}
+        out[key] = {"declarations": {str(s): round(d, 3) for s, d in sorted(epochs.items())},
+                    "histogram": np.histogram(list(epochs.values()), bins=BINS)[0].tolist()}
+    return out
+
+
+def measure(seeds: int, first_seed: int = 1, workers: int = 2, scenario: str = "insight-approach") -> dict[str, Any]:
+    jobs = [(s, scenario) for s in range(first_seed, first_seed + seeds)]
+    if workers <= 1:
+        flights = [fly(j) for j in jobs]
+    else:
+        with multiprocessing.get_context("spawn").Pool(workers) as pool:
+            flights = pool.map(fly, jobs, chunksize=1)
+    return summarize(flights, scenario)
+
+
+def plot(res: dict[str, Any], path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    bins = res["bins_day"]
+    centres = [0.5 * (a + b) for a, b in zip(bins[:-1], bins[1:])]
+    widths = [b - a for a, b in zip(bins[:-1], bins[1:])]
+    fig, ax = plt.subplots(figsize=(8, 3.6))
+    for key, label, off, colour in (("every_batch", "closing tail judged (before)", -0.25, "tab:red"),
+                                    ("short_tail_open", "tail < half a batch left open (now)", 0.25, "tab:blue")):
+        ax.bar([c + off * w for c, w in zip(centres, widths)], res[key]["histogram"],
+               width=[0.45 * w for w in widths], label=label, color=colour)
+    ax.set_xlabel("declaration epoch [day of the 45-day arc; entry at 45]")
+    ax.set_ylabel("false alarms")
+    ax.set_title(f"chi2 detector, {res['runs']} nominal runs of {res['scenario']}")
+    ax.legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def section(path: Path, fig_dir: Path, doc_dir: Path) -> Section:
+    res = json.loads(Path(path).read_text(encoding="utf-8"))
+    fig = plot(res, fig_dir / "false-alarm-epochs.png")
+    bins = res["bins_day"]
+    labels = [f"{a:g}-{b:g}" for a, b in zip(bins[:-1], bins[1:])]
+    s = Section("Beyond the papers: false alarms near entry")
+    n = res["runs"]
+    s.lines += [
+        f"`{COMMAND}` flies {n} nominal runs of `{res['scenario']}` (seeds {min(res['seeds'])}-{max(res['seeds'])}) "
+        "and replays the shipped chi2 detector on each run's weights, once on every weight update (the "
+        "closing partial batch included, as the FSW judged before) and once with a closing tail shorter than "
+        "half a batch left open (`final_batch_min: 0.5`, as it judges now). Declaration epochs, days of the arc:",
+        "",
+        *table(["declared at day", *labels, "all"],
+               [[k.replace("_", " "), *map(str, res[k]["histogram"]), f"{sum(res[k]['histogram'])}/{n}"]
+                for k in ("every_batch", "short_tail_open")]),
+        "",
+        f"![false-alarm-epochs]({fig.relative_to(doc_dir).as_posix()})",
+        "",
+    ]
+    s.discussion = DISCUSSION
+    return s
+
+
+DISCUSSION = """\
+Are the end-of-arc statistics nominal? The innovations are: over nominal seeds the NIS per
+measurement kind per day bin in the last two days (Doppler 0.97-1.04, optical 0.98-1.03, range
+0.8-1.0 over a few hundred points) sits where it does mid-arc, so neither the linearisation near
+Mars, the light time, nor the camera near Mars gives the filters residuals larger than they
+predict. What is not nominal is the last gating batch. The arc ends ~0.3 day (~170 measurements)
+into the 30th batch of M = 1000, and closing that tail at entry gave weights that were 70 %
+the previous batch's (eq. 8 blends the previous weights and the batch's evidence in the ratio
+W̄⁻¹ : G_k, 400 : 170, against 400 : 1100 for a full batch): its detection statistic repeated the
+last full batch's excursion, and the k-of-n rule counted it as a second independent exceedance.
+The tail now stays open unless it holds half a batch; its measurements still update every filter.
+The detector's calibration was made with the tail judged; it is redone at scale with the speed
+work."""
+
+
+__all__ = ["COMMAND", "FILE", "declaration_day", "fly", "measure", "plot", "section", "summarize", "tail_is_short"]
