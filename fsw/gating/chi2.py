@@ -280,7 +280,7 @@ class Chi2Network(GatingNetwork):
         (G ≈ 1100) keeps 27 % of the previous weights, the ~170-measurement tail that ends the
         InSight arc 70 %: its weights repeat the last full batch's excursion, and the detector's
         k-of-n rule counted that repeat as a second, independent exceedance — over nominal seeds
-        the closing tail exceeded the threshold several times as often as a full batch, which
+        the closing tail exceeded the threshold 2-3 times as often as a mid-arc batch, which
         piled false alarms up at entry (docs/validation.md, "False alarms near entry")."""
         if self._count == 0 or self._count < self.params.final_batch_min * self.params.batch_size:
             return None

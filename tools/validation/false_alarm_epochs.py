@@ -57,6 +57,21 @@ def declaration_day(cfg: Any, updates: list[Update], t0: float, drop_short_tail:
     return None
 
 
+def exceedance_rates(cfg: Any, flights: list[dict[str, Any]]) -> dict[str, Any]:
+    """Fraction of runs whose detection statistic D exceeds the threshold, per batch: mid-arc
+    (third to fourth-last batch), the last full batch and the closing tail, with mean D."""
+    from fsw.fdir.statistic import NominalBand
+
+    cal = cfg.fsw.detector.calibration
+    band = NominalBand.from_config(cal)
+    k = min(len(f["updates"]) for f in flights)
+    D = np.array([[float(band.deviation(np.asarray(u[1], dtype=float))) for u in f["updates"][-k:]] for f in flights])
+    exc = D > cal.threshold
+    parts = {"mid-arc": slice(2, k - 3), "last full batch": slice(k - 2, k - 1), "closing tail": slice(k - 1, k)}
+    return {name: {"rate": float(exc[:, sl].mean()), "mean_D": float(D[:, sl].mean()),
+                   "samples": int(exc[:, sl].size)} for name, sl in parts.items()}
+
+
 def fly(args: tuple[int, str]) -> dict[str, Any]:
     """One nominal seed: the chi2 network's weight updates with every partial batch closed."""
     from tools.inprocess import run_in_process
@@ -79,6 +94,7 @@ def summarize(flights: list[dict[str, Any]], scenario: str = "insight-approach")
     cfg, _ = resolve(load_scenario(scenario), flights[0]["seed"] if flights else 1)
     out: dict[str, Any] = {"scenario": scenario, "runs": len(flights), "bins_day": list(BINS),
                            "seeds": [f["seed"] for f in flights]}
+    out["exceedance"] = exceedance_rates(cfg, flights)
     for key, drop in (("every_batch", False), ("short_tail_open", True)):
         days = {f["seed"]: declaration_day(cfg, [tuple(u) for u in f["updates"]], f["t0"], drop) for f in flights}
         epochs = {s: d for s, d in days.items() if d is not None}
@@ -104,14 +120,14 @@ def plot(res: dict[str, Any], path: Path) -> Path:
     import matplotlib.pyplot as plt
 
     bins = res["bins_day"]
-    centres = [0.5 * (a + b) for a, b in zip(bins[:-1], bins[1:])]
-    widths = [b - a for a, b in zip(bins[:-1], bins[1:])]
-    fig, ax = plt.subplots(figsize=(8, 3.6))
-    for key, label, off, colour in (("every_batch", "closing tail judged (before)", -0.25, "tab:red"),
-                                    ("short_tail_open", "tail < half a batch left open (now)", 0.25, "tab:blue")):
-        ax.bar([c + off * w for c, w in zip(centres, widths)], res[key]["histogram"],
-               width=[0.45 * w for w in widths], label=label, color=colour)
-    ax.set_xlabel("declaration epoch [day of the 45-day arc; entry at 45]")
+    labels = [f"{a:g}-{b:g}" for a, b in zip(bins[:-1], bins[1:])]
+    x = np.arange(len(labels))  # one column per bin: the last two are hours wide, but hold the entry
+    fig, ax = plt.subplots(figsize=(9, 3.8))
+    for key, label, off, colour in (("every_batch", "closing tail judged (before)", -0.2, "tab:red"),
+                                    ("short_tail_open", "tail < half a batch left open (now)", 0.2, "tab:blue")):
+        ax.bar(x + off, res[key]["histogram"], width=0.4, label=label, color=colour)
+    ax.set_xticks(x, labels, rotation=30)
+    ax.set_xlabel("declaration epoch [days of the 45-day arc; entry at 45]")
     ax.set_ylabel("false alarms")
     ax.set_title(f"chi2 detector, {res['runs']} nominal runs of {res['scenario']}")
     ax.legend()
@@ -139,26 +155,41 @@ def section(path: Path, fig_dir: Path, doc_dir: Path) -> Section:
                [[k.replace("_", " "), *map(str, res[k]["histogram"]), f"{sum(res[k]['histogram'])}/{n}"]
                 for k in ("every_batch", "short_tail_open")]),
         "",
+        "Per batch, the fraction of runs whose detection statistic D exceeds the threshold (every batch judged):",
+        "",
+        *table(["batches", "D > threshold", "mean D", "batch samples"],
+               [[k, f"{100 * v['rate']:.1f} %", f"{v['mean_D']:.2f}", str(v["samples"])]
+                for k, v in res["exceedance"].items()]),
+        "",
         f"![false-alarm-epochs]({fig.relative_to(doc_dir).as_posix()})",
         "",
     ]
-    s.discussion = DISCUSSION
+    e = res["exceedance"]
+    before, after = (sum(res[k]["histogram"]) for k in ("every_batch", "short_tail_open"))
+    s.discussion = DISCUSSION.format(
+        tail=100 * e["closing tail"]["rate"], mid=100 * e["mid-arc"]["rate"], last=100 * e["last full batch"]["rate"],
+        tail_d=e["closing tail"]["mean_D"], mid_d=e["mid-arc"]["mean_D"], n=n, before=before, after=after)
     return s
 
 
 DISCUSSION = """\
-Are the end-of-arc statistics nominal? The innovations are: over nominal seeds the NIS per
-measurement kind per day bin in the last two days (Doppler 0.97-1.04, optical 0.98-1.03, range
-0.8-1.0 over a few hundred points) sits where it does mid-arc, so neither the linearisation near
-Mars, the light time, nor the camera near Mars gives the filters residuals larger than they
-predict. What is not nominal is the last gating batch. The arc ends ~0.3 day (~170 measurements)
-into the 30th batch of M = 1000, and closing that tail at entry gave weights that were 70 %
-the previous batch's (eq. 8 blends the previous weights and the batch's evidence in the ratio
-W̄⁻¹ : G_k, 400 : 170, against 400 : 1100 for a full batch): its detection statistic repeated the
-last full batch's excursion, and the k-of-n rule counted it as a second independent exceedance.
-The tail now stays open unless it holds half a batch; its measurements still update every filter.
-The detector's calibration was made with the tail judged; it is redone at scale with the speed
-work."""
+**Are the end-of-arc statistics nominal?** The innovations are. On the same runs' residual
+telemetry (seeds 1-100), the fused filter's NIS per dimension over days 43-44, 44-44.5 and 44.5 to
+entry is 1.00, 1.01, 1.01 for Doppler (14,000-50,000 points each), 1.00, 0.99, 0.97 for optical
+and 1.03, 1.01, 0.96 for range (1,400 points in the last half day), as it is mid-arc (1.00 ± 0.01):
+neither the linearisation near Mars, the light time, the gravity gradient nor the camera near Mars
+leaves the filters residuals larger than they predict. What is not
+nominal is the last gating batch. The arc ends ~0.3 day (~170 measurements) into the 30th batch of
+M = 1000, and closing that tail at entry gave weights 70 % the previous batch's (eq. 8 blends the
+previous weights and the batch's evidence in the ratio W̄⁻¹ : G_k, 400 : 170, against 400 : 1100 for
+a full batch): the tail's statistic exceeded the threshold in {tail:.0f} % of the runs against
+{mid:.1f} % for a mid-arc batch (mean D {tail_d:.2f} against {mid_d:.2f}; the last full batch
+{last:.0f} %), and, repeating the last full batch's excursion, it gave the k-of-n rule a second
+exceedance at entry. The tail now stays open unless it holds half a batch (its measurements still
+update every filter): {before} false alarms in {n} runs become {after}, and what remains is spread
+over the arc — with three of them at the same day-9 batch, not yet explained. The shipped threshold was calibrated with the tail judged, and its false-alarm rate
+is above its 5 % target out of sample either way; the calibration is redone at scale with the
+speed work."""
 
 
 __all__ = ["COMMAND", "FILE", "declaration_day", "fly", "measure", "plot", "section", "summarize", "tail_is_short"]
