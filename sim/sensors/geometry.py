@@ -90,6 +90,19 @@ class Scene:
 
         return velocity
 
+    def station_state(self, name: str) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """t -> barycentric (position, velocity) (N, 3) each of DSN station ``name``: the values of
+        :meth:`station` and :meth:`station_velocity`, from one Earth orientation and one ephemeris
+        evaluation instead of two."""
+
+        def state(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            t = np.atleast_1d(np.asarray(t, dtype=float))
+            p_earth, v_earth = self._table.state("earth", t)
+            p, v = self.station_gcrs(name, t)
+            return p_earth + p, v_earth + v
+
+        return state
+
     def target(self, name: str) -> Callable[[np.ndarray], np.ndarray]:
         """t -> barycentric position (N, 3) of an optical target: ``mars``, ``phobos``, ``deimos``
         or a beacon asteroid (:mod:`sim.sensors.asteroids`)."""
