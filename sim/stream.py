@@ -60,8 +60,15 @@ def component_seeds(seed: int) -> dict[str, np.random.SeedSequence]:
 
 
 def _stamps(t_tdb: np.ndarray) -> list[Stamp]:
-    unix = np.atleast_1d(tdb_to_unix(np.asarray(t_tdb, dtype=float)))
-    return [Stamp.from_unix(float(u)) for u in unix]
+    """:meth:`Stamp.from_unix` of each time's Unix seconds, its arithmetic done on the array (floor,
+    round half to even, the carry and the clamp at 0 are what it does to each float)."""
+    unix = np.atleast_1d(np.asarray(tdb_to_unix(np.asarray(t_tdb, dtype=float)), dtype=float))
+    sec = np.floor(unix)
+    nsec = np.rint((unix - sec) * 1e9)
+    carry = nsec >= 1e9
+    sec, nsec = np.where(carry, sec + 1.0, sec), np.where(carry, nsec - 1e9, nsec)
+    return [Stamp(sec=s, nsec=n) for s, n in zip(np.maximum(sec, 0.0).astype(np.int64).tolist(),
+                                                  nsec.astype(np.int64).tolist())]
 
 
 @dataclass
@@ -216,22 +223,26 @@ def generate(cfg: SimConfig = SimConfig(), faults: tuple[FaultConfig, ...] | Non
 
     measurements: list[Measurement] = []
     count_s = float(cfg.radiometric.doppler_count_s)
-    for seq, k in enumerate(order):
-        i = int(index[k])
-        tag = float(tags[seq])
-        if origin[k] == "radio":
-            kind = str(radio.kind[i])
+    # Python scalars of every column once (tolist gives the same floats as float() of each element).
+    r_kind, r_station = [str(v) for v in radio.kind.tolist()], [str(v) for v in radio.station.tolist()]
+    r_value, r_sigma = np.asarray(radio_value, dtype=float).tolist(), np.asarray(radio.sigma, dtype=float).tolist()
+    o_target = [str(v) for v in optical.target.tolist()]
+    o_value = np.asarray(opt_value, dtype=float).reshape(-1, 2).tolist()
+    o_sigma = np.asarray(optical.sigma, dtype=float).reshape(-1, 2).tolist()
+    o_q = np.asarray(optical.attitude_q, dtype=float).reshape(-1, 4).tolist()
+    is_radio = (origin[order] == "radio").tolist()
+    for seq, (i, tag, radio_row) in enumerate(zip(index[order].tolist(), tags.tolist(), is_radio)):
+        if radio_row:
+            kind = r_kind[i]
             measurements.append(Measurement(
-                seq=seq, t_s=tag, timestamp=stamps[seq], kind=kind, source=str(radio.station[i]),
-                value=(float(radio_value[i]),), sigma=(float(radio.sigma[i]),),
+                seq=seq, t_s=tag, timestamp=stamps[seq], kind=kind, source=r_station[i],
+                value=(r_value[i],), sigma=(r_sigma[i],),
                 count_time_s=count_s if kind == "doppler" else None,
             ))
         else:
             measurements.append(Measurement(
-                seq=seq, t_s=tag, timestamp=stamps[seq], kind="optical", source=str(optical.target[i]),
-                value=(float(opt_value[i, 0]), float(opt_value[i, 1])),
-                sigma=(float(optical.sigma[i, 0]), float(optical.sigma[i, 1])),
-                attitude_q=tuple(float(v) for v in optical.attitude_q[i]),
+                seq=seq, t_s=tag, timestamp=stamps[seq], kind="optical", source=o_target[i],
+                value=tuple(o_value[i]), sigma=tuple(o_sigma[i]), attitude_q=tuple(o_q[i]),
             ))
 
     if cfg.truth_interval_s > 0.0:
