@@ -133,20 +133,13 @@ def _truth_messages(trajectory, clock: ClockTruth, windows, t: np.ndarray) -> li
     acs = np.atleast_2d(trajectory.acs_accel(t))
     ids = active_ids(windows, t)
     stamps = _stamps(t)
+    rows = zip(np.asarray(t, dtype=float).tolist(), np.asarray(x, dtype=float).tolist(),
+               *(np.asarray(v, dtype=float).ravel().tolist() for v in (b, f, a, srp)),
+               np.asarray(acs, dtype=float).tolist(), ids, stamps)
     return [
-        Truth(
-            t_s=float(t[k]),
-            timestamp=stamps[k],
-            position_km=tuple(float(v) for v in x[k, :3]),
-            velocity_km_s=tuple(float(v) for v in x[k, 3:]),
-            clock_phase_s=float(b[k]),
-            clock_frequency=float(f[k]),
-            clock_drift_per_s=float(a[k]),
-            srp_scale=float(srp[k]),
-            acs_accel_km_s2=tuple(float(v) for v in acs[k]),
-            active_faults=ids[k],
-        )
-        for k in range(t.size)
+        Truth(t_s=tk, timestamp=stamp, position_km=tuple(xk[:3]), velocity_km_s=tuple(xk[3:]), clock_phase_s=bk,
+              clock_frequency=fk, clock_drift_per_s=ak, srp_scale=sk, acs_accel_km_s2=tuple(acc), active_faults=idk)
+        for tk, xk, bk, fk, ak, sk, acc, idk, stamp in rows
     ]
 
 
