@@ -23,6 +23,7 @@ surface); the pole's rate (~2 mas/day, < 1e-9 km/s) is left out.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import erfa
 import numpy as np
@@ -64,6 +65,20 @@ def _r3(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return m, d
 
 
+@lru_cache(maxsize=8)
+def _node_table(k0: int, n: int) -> np.ndarray:
+    """X, Y, s and TDB-TT at the hourly nodes k0 .. k0+n-1 (read-only; every run of a scenario
+    flies the same span, so a campaign pays the ~50 ms of the full series once per process)."""
+    t_nodes = (k0 + np.arange(n)) * _NODE_S
+    dtdb = erfa.dtdb(JD_J2000, t_nodes / SECONDS_PER_DAY, 0.0, 0.0, 0.0, 0.0)
+    tt = t_nodes - dtdb
+    x, y, s = erfa.xys06a(JD_J2000, tt / SECONDS_PER_DAY)
+    # columns: X, Y, s, TDB-TT at each node (s and TDB-TT are smooth enough for the same cubic)
+    nodes = np.column_stack([x, y, s, dtdb])
+    nodes.flags.writeable = False
+    return nodes
+
+
 class EarthOrientation:
     """ITRS -> GCRS over [t_start, t_end] (TDB seconds past J2000)."""
 
@@ -74,11 +89,7 @@ class EarthOrientation:
         n = math.ceil(t_end / _NODE_S) + 3 - self.k0
         t_nodes = (self.k0 + np.arange(n)) * _NODE_S
         self.t_first, self.t_last = float(t_nodes[1]), float(t_nodes[-3])
-        dtdb = erfa.dtdb(JD_J2000, t_nodes / SECONDS_PER_DAY, 0.0, 0.0, 0.0, 0.0)
-        tt = t_nodes - dtdb
-        x, y, s = erfa.xys06a(JD_J2000, tt / SECONDS_PER_DAY)
-        # columns: X, Y, s, TDB-TT at each node (s and TDB-TT are smooth enough for the same cubic)
-        self._nodes = np.column_stack([x, y, s, dtdb])
+        self._nodes = _node_table(self.k0, n)
 
     def _interp(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if not np.all(np.isfinite(t)):
