@@ -48,7 +48,7 @@ class Scene:
         """Elevation [rad] (N,) of geocentric targets (N, 3) above the station's WGS84 horizon."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         st = truth_station(name)
-        m, _ = self._earth.matrices(t)
+        m = self._earth.rotation(t)
         pos = (m @ st.itrs_km(t)[..., None])[..., 0]
         up = m @ st.up_itrs(float(t[0])) if t.size else np.zeros((0, 3))
         los = np.asarray(target_geocentric_km, dtype=float) - pos

@@ -102,8 +102,13 @@ class EarthOrientation:
         val, slope = _lagrange4(self._nodes, k, x - k)
         return val, slope / _NODE_S
 
-    def matrices(self, t_tdb) -> tuple[np.ndarray, np.ndarray]:
-        """ITRS -> GCRS rotation M (N, 3, 3) and its time derivative dM/dt at t (N,)."""
+    def rotation(self, t_tdb) -> np.ndarray:
+        """ITRS -> GCRS rotation M (N, 3, 3) at t (N,): :meth:`matrices` without the rate."""
+        return self.matrices(t_tdb, rate=False)[0]
+
+    def matrices(self, t_tdb, rate: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """ITRS -> GCRS rotation M (N, 3, 3) and its time derivative dM/dt at t (N,) (zeros
+        when ``rate`` is False)."""
         t = np.atleast_1d(np.asarray(t_tdb, dtype=float))
         val, slope = self._interp(t)
         tt = t - val[:, 3]
@@ -111,16 +116,18 @@ class EarthOrientation:
         eop = eop_at_tai(tai)
         X, Y, s = val[:, 0] + eop.dx, val[:, 1] + eop.dy, val[:, 2]
         q = np.swapaxes(erfa.c2ixys(X, Y, s), -1, -2)  # CIRS -> GCRS
-        h = 60.0  # the slope of Q from the cubic's slope: one minute each side is linear to 1e-16
-        q_p = np.swapaxes(erfa.c2ixys(X + h * slope[:, 0], Y + h * slope[:, 1], s + h * slope[:, 2]), -1, -2)
-        q_m = np.swapaxes(erfa.c2ixys(X - h * slope[:, 0], Y - h * slope[:, 1], s - h * slope[:, 2]), -1, -2)
-        dq = (q_p - q_m) / (2 * h)
         ut1 = tai + eop.ut1_minus_tai
         day = np.floor(ut1 / SECONDS_PER_DAY)  # whole days apart keep the fraction's resolution (1e-11 s)
         era = np.asarray(erfa.era00(JD_J2000 + day, (ut1 - day * SECONDS_PER_DAY) / SECONDS_PER_DAY))
         r, dr = _r3(era)
         w = np.swapaxes(erfa.pom00(eop.xp, eop.yp, erfa.sp00(JD_J2000, tt / SECONDS_PER_DAY)), -1, -2)  # ITRS -> TIRS
         m = q @ r @ w
+        if not rate:
+            return m, np.zeros_like(m)
+        h = 60.0  # the slope of Q from the cubic's slope: one minute each side is linear to 1e-16
+        q_p = np.swapaxes(erfa.c2ixys(X + h * slope[:, 0], Y + h * slope[:, 1], s + h * slope[:, 2]), -1, -2)
+        q_m = np.swapaxes(erfa.c2ixys(X - h * slope[:, 0], Y - h * slope[:, 1], s - h * slope[:, 2]), -1, -2)
+        dq = (q_p - q_m) / (2 * h)
         dm = q @ (dr * (_ERA_RATE * (1.0 + eop.ut1_rate))[:, None, None]) @ w + dq @ r @ w
         return m, dm
 
