@@ -77,7 +77,9 @@ class Scene:
 
         def position(t: np.ndarray) -> np.ndarray:
             t = np.atleast_1d(np.asarray(t, dtype=float))
-            return self.body("earth", t) + self.station_gcrs(name, t)[0]
+            # the rotation alone: the same product M r as station_gcrs' position, without the rate
+            gcrs = (self._earth.rotation(t) @ truth_station(name).itrs_km(t)[..., None])[..., 0]
+            return self.body("earth", t) + gcrs
 
         return position
 
