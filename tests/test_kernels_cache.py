@@ -49,7 +49,8 @@ from fsw.config import FswConfig
 from fsw.core.fswcore import FswCore
 from fsw.kernels import camera, count_start, doppler, joseph_update, light_time, time_update, variational_rk4
 kernels = [variational_rk4.rk4_variational, time_update.time_update, joseph_update.joseph_update,
-           light_time.uplink_reception, light_time.uplink_light_time, count_start.count_start_from_leg,
+           light_time.uplink_reception, light_time.uplink_light_time, light_time.uplink_solution,
+           count_start.count_start_from_leg,
            doppler.doppler_prediction, camera.pinhole_image]
 assert all(len(k.signatures) == 1 and k._can_compile is False for k in kernels), [k.signatures for k in kernels]
 print("ok")

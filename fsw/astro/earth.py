@@ -100,8 +100,14 @@ def era_from_ut1_days(du) -> np.ndarray | float:
 
 def earth_rotation_angle(t_tdb, dut1_s: float | None = None):
     """ERA [rad] at t_tdb with UT1 = UTC + dut1_s (default: the uploaded UT1-UTC)."""
+    return _era(t_tdb, dut1_s, None)
+
+
+def _era(t_tdb, dut1_s: float | None, eop: np.ndarray | None):
+    """:func:`earth_rotation_angle`, reading UT1-UTC from ``eop`` (the uploaded EOP at t_tdb,
+    :func:`_eop_and_ut1_tai`) when given."""
     if dut1_s is None:
-        dut1 = uploaded_eop(t_tdb)[0]
+        dut1 = (eop if eop is not None else _eop_and_ut1_tai(t_tdb)[0])[:, 0]
         dut1_arr: np.ndarray | float = dut1 if np.ndim(t_tdb) else float(dut1[0])
     else:
         dut1_arr = dut1_s
@@ -110,11 +116,16 @@ def earth_rotation_angle(t_tdb, dut1_s: float | None = None):
 
 def polar_motion_matrix(t_tdb, dut1_s: float | None = None) -> np.ndarray:
     """W (ITRS -> TIRS) from the uploaded pole; identity where ``dut1_s`` is given explicitly."""
+    return _polar_motion(t_tdb, dut1_s, None)
+
+
+def _polar_motion(t_tdb, dut1_s: float | None, eop: np.ndarray | None) -> np.ndarray:
+    """:func:`polar_motion_matrix`, reading the pole from ``eop`` (as :func:`_era`) when given."""
     n = np.shape(t_tdb)
     if dut1_s is not None:
         return np.broadcast_to(np.eye(3), n + (3, 3)).copy()
-    _, xp, yp = uploaded_eop(t_tdb)
-    w = np.swapaxes(erfa.pom00(xp, yp, 0.0), -1, -2)
+    e = eop if eop is not None else _eop_and_ut1_tai(t_tdb)[0]
+    w = np.swapaxes(erfa.pom00(e[:, 1], e[:, 2], 0.0), -1, -2)
     return w.reshape(n + (3, 3))
 
 
@@ -158,9 +169,25 @@ def itrs_to_gcrs_state(r_itrs_km, t_tdb, dut1_s: float | None = None) -> tuple[n
     ``r_itrs_km`` is (3,) or, with t (N,), one point per epoch (N, 3); t scalar -> (3,)
     outputs, t (N,) -> (N, 3).
     """
+    pos, vel, _ = _itrs_to_gcrs(r_itrs_km, t_tdb, dut1_s, False)
+    return pos, vel
+
+
+def itrs_to_gcrs_state_and_pole(r_itrs_km, t_tdb) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`itrs_to_gcrs_state` (uploaded EOP) and the celestial intermediate pole, the third
+    column of :func:`itrs_to_gcrs_matrix`, from one evaluation of the rotation chain."""
+    pos, vel, k = _itrs_to_gcrs(r_itrs_km, t_tdb, None, True)
+    assert k is not None
+    return pos, vel, k
+
+
+def _itrs_to_gcrs(r_itrs_km, t_tdb, dut1_s: float | None,
+                  pole: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     t = np.asarray(t_tdb, dtype=float)
-    r = np.matvec(polar_motion_matrix(t, dut1_s), np.asarray(r_itrs_km, dtype=float))
-    theta = earth_rotation_angle(t, dut1_s)
+    eop = _eop_and_ut1_tai(t)[0] if dut1_s is None else None  # the pole and UT1 of one lookup
+    W = _polar_motion(t, dut1_s, eop)
+    r = np.matvec(W, np.asarray(r_itrs_km, dtype=float))
+    theta = _era(t, dut1_s, eop)
     R = _r3_neg(theta)
     c, s = np.cos(theta), np.sin(theta)
     dR = np.zeros(np.shape(theta) + (3, 3))
@@ -179,7 +206,8 @@ def itrs_to_gcrs_state(r_itrs_km, t_tdb, dut1_s: float | None = None) -> tuple[n
     dQ = (cirs_to_gcrs_matrix(t + h) - cirs_to_gcrs_matrix(t - h)) / (2 * h)
     pos = ((Q @ R) @ r[..., None])[..., 0]
     vel = ((Q @ dR + dQ @ R) @ r[..., None])[..., 0]
-    return pos, vel
+    # the same product as itrs_to_gcrs_matrix, of the same factors
+    return pos, vel, (Q @ R @ W)[..., :, 2] if pole else None
 
 
 def geodetic_to_itrs(lat_rad: float, lon_rad: float, h_km: float) -> np.ndarray:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsw.astro.earth import itrs_to_gcrs_matrix, itrs_to_gcrs_state, itrs_to_geodetic
+from fsw.astro.earth import itrs_to_gcrs_matrix, itrs_to_gcrs_state, itrs_to_gcrs_state_and_pole, itrs_to_geodetic
 from fsw.astro.ephemeris import EphemerisSource, default_ephemeris
 
 
@@ -94,6 +94,14 @@ def station_state_icrf(name: str, t_tdb, dut1_s: float | None = None) -> tuple[n
     st = station(name)
     # plate motion within one call's span (mm a month) is left out: the position at its first epoch
     return itrs_to_gcrs_state(st.itrs_at(float(np.min(t_tdb)) if np.size(t_tdb) else 0.0), t_tdb, dut1_s)
+
+
+def station_states_and_pole_icrf(name: str, t_tdb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`station_states_icrf` and the celestial intermediate pole (N, 3) at the same epochs
+    (the third column of :func:`fsw.astro.earth.itrs_to_gcrs_matrix`), sharing the rotation chain."""
+    st = station(name)
+    t = np.asarray(t_tdb, dtype=float)
+    return itrs_to_gcrs_state_and_pole(st.itrs_at(t), t)
 
 
 def station_states_icrf(name: str, t_tdb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

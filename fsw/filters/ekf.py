@@ -44,6 +44,7 @@ from fsw.kernels.count_start import count_start_from_leg
 from fsw.kernels.time_update import time_update
 from fsw.kernels.joseph_update import joseph_update
 from fsw.models.propagator import Propagator
+from fsw.models.radiometric import UplinkWork
 from fsw.models.stochastic import apply_ecrv_step, batch_boundaries, ecrv_factors
 
 def union_layout(filters: tuple[FilterConfig, ...]) -> StateLayout:
@@ -86,6 +87,17 @@ class _Batched:
             if self.sigma[i] > 0.0 and abs(k - round(k)) * L < 1e-6:
                 m[i], q[i] = ecrv_factors(float(L), self.tau[i], float(self.sigma[i]))
         return m, q
+
+
+class DopplerWork:
+    """Arrays a Doppler prediction fills for every count (read before the next one): both ends'
+    [r, v] (2, N, 6), their epochs, the start's sensitivity and the light-time solution."""
+
+    def __init__(self, N: int, nq: int):
+        self.z = np.empty((2, N, 6))
+        self.tt = np.empty(2)
+        self.Yb = np.empty((N, 6, 6 + nq))
+        self.uplinks = UplinkWork(2, N)
 
 
 class EKFStack:
@@ -154,7 +166,23 @@ class EKFStack:
         for col, qi in self._q_cols:
             self._z_to_state[6 + qi, col] = 1.0
             self._state_to_q[col, qi] = 1.0
+        # q by column picks: each driver is fed by one or two state columns, and the sum of two
+        # (the rest of x @ _state_to_q is exact zeros) is the same in any order
+        feeds: list[list[int]] = [[] for _ in range(nq)]
+        for col, qi in self._q_cols:
+            feeds[qi].append(col)
+        # (flat indices into a C-ordered (N, n) x: first feeds, where q has a second feed, the second)
+        self._q_pick: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        if nq > 0 and all(1 <= len(f) <= 2 for f in feeds):
+            rows = np.arange(N)[:, None]
+            pairs = [qi for qi in range(nq) if len(feeds[qi]) == 2]
+            self._q_pick = ((rows * n + np.array([f[0] for f in feeds])).ravel(),
+                            (rows * nq + np.array(pairs, dtype=np.int64)).ravel(),
+                            (rows * n + np.array([feeds[qi][1] for qi in pairs], dtype=np.int64)).ravel())
         self._clock = (L.slices["clock"].start, L.slices["clock"].stop) if L.has("clock") else None
+        # the drivers of a state array the stack made and has not written since: the time update
+        # copies the parameter columns, so its output has its input's q
+        self._q_known: tuple[np.ndarray | None, np.ndarray] = (None, np.empty((N, nq)))
         # the column of Y that feeds each state column of Φ's dynamics rows (−1: none)
         self._phi_source = np.full(n, -1, dtype=np.int64)
         self._phi_source[0:6] = np.arange(6)
@@ -194,27 +222,44 @@ class EKFStack:
         ]
         self._any_adaptive = any(aq is not None for aq in self.adaptive_q)
         self._no_gate = np.full(N, np.inf)
+        self.doppler_work = DopplerWork(N, nq)
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
         """Acceleration drivers q (N, n_q) of the state: SRP scale, ACS magnitude and tilts, polynomial."""
-        return (self.x if x is None else x) @ self._state_to_q
+        x = self.x if x is None else x
+        pick = self._q_pick
+        if pick is None or x.shape != self.x.shape:
+            return np.ascontiguousarray(x @ self._state_to_q)
+        first, pairs, second = pick
+        flat = x.ravel()  # a view when x is C-ordered
+        q = flat[first]
+        if pairs.size:
+            q[pairs] += flat[second]
+        return q.reshape(x.shape[0], -1)
 
     def _propagate_interval(self, t1: float) -> None:
         h = t1 - self.t
         if h == 0.0:
             return
         x = self.x
-        q = self.drivers()
-        r1, v1, Y = self.propagator.propagate(self.t, t1, x[:, 0:3], x[:, 3:6], q)
-        z1 = np.concatenate((r1, v1), axis=1)
+        if not x.flags.c_contiguous:
+            x = np.ascontiguousarray(x)
+        known, q = self._q_known
+        if known is not x:
+            q = self.drivers(x)
+        N, n = x.shape
+        z1 = x[:, 0:6].copy()
+        Y = np.empty((N, 6, 6 + q.shape[1]))
+        self.propagator.propagate_z(self.t, t1, z1, q, Y)
         c0, c1 = self._clock if self._clock is not None else (0, 0)
-        x_new = np.empty(x.shape)
-        P = np.empty(self.P.shape)
+        x_new = np.empty((N, n))
+        P = np.empty((N, n, n))
         P_prior = self.P if self.P.flags.c_contiguous else np.ascontiguousarray(self.P)
-        time_update(x if x.flags.c_contiguous else np.ascontiguousarray(x), z1, P_prior, Y, self._phi_source, c0, c1,
-                    h, self.clock_q, self.snc_psd, x_new, P)
-        self._last_leg = (self.t, t1, x[:, 0:6].copy(), z1, q, Y)
+        time_update(x, z1, P_prior, Y, self._phi_source, c0, c1, h, self.clock_q, self.snc_psd, x_new, P)
+        # x is no longer the stack's state and nothing else writes it: it serves as the leg's start
+        self._last_leg = (self.t, t1, x, z1, q, Y)
+        self._q_known = (x_new, q)
         self.x = x_new
         self.P = P
         self.t = t1
@@ -228,6 +273,7 @@ class EKFStack:
 
     def _apply_events(self, t: float) -> None:
         self._last_leg = None
+        self._q_known = (None, self._q_known[1])  # x is written in place below
         for b in self.batched:
             m, q = b.factors(t)
             if np.any(q > 0.0) or np.any(m != 1.0):
@@ -246,6 +292,8 @@ class EKFStack:
             raise ValueError(f"cannot propagate from {self.t} back to {t1}")
         t_start = self.t
         self._propagate_events(t1)
+        if not self._any_adaptive:
+            return
         for i, aq in enumerate(self.adaptive_q):
             if aq is not None and aq.active and t1 > t_start:
                 q = aq.q_diagonal(t1 - t_start)
@@ -301,14 +349,33 @@ class EKFStack:
         symplectic (a Hamiltonian flow: G is symmetric), so Φ⁻¹ = [[Φ_vvᵀ, −Φ_rvᵀ], [−Φ_vrᵀ, Φ_rrᵀ]].
         Otherwise the state is propagated back by T.
         """
+        z_start = np.empty((x.shape[0], 6))
+        Yb = self.count_start_into(t, count_s, x, z_start)
+        return z_start[:, 0:3], z_start[:, 3:6], Yb
+
+    def count_start_into(self, t: float, count_s: float, x: np.ndarray, z_start: np.ndarray,
+                         Yb: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`count_start` writing [r, v] at t − T into ``z_start`` (N, 6), C-contiguous, and Yb
+        into ``Yb`` (N, 6, 6 + n_q) if given; returns Yb."""
         leg = self._last_leg
+        xc = x if x.flags.c_contiguous else np.ascontiguousarray(x)
+        known, q = self._q_known
+        if known is not xc:
+            q = self.drivers(xc)
+            if xc is self.x:
+                self._q_known = (xc, q)
         if leg is not None and x is self.x and leg[1] == self.t == t and abs(leg[0] - (t - count_s)) < 1e-6:
-            _, _, z0, z1, q_leg, Y = leg
-            z_start = np.empty((x.shape[0], 6))
-            Yb = np.empty_like(Y)
-            count_start_from_leg(Y, z0, z1, np.ascontiguousarray(x[:, 0:6]), self.drivers(x), q_leg, z_start, Yb)
-            return z_start[:, 0:3], z_start[:, 3:6], Yb
-        return self.propagator.propagate(t, t - count_s, x[:, 0:3], x[:, 3:6], self.drivers(x))
+            _, _, x0, z1, q_leg, Y = leg
+            if Yb is None or Yb.shape != Y.shape:
+                Yb = np.empty(Y.shape)
+            # the kernel reads the first six columns of the states x0 and x
+            count_start_from_leg(Y, x0, z1, xc, q, q_leg, z_start, Yb)
+            return Yb
+        z_start[:] = xc[:, 0:6]
+        if Yb is None:
+            Yb = np.empty((x.shape[0], 6, 6 + q.shape[1]))
+        self.propagator.propagate_z(t, t - count_s, z_start, q, Yb)
+        return Yb
 
     @property
     def cameras(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -364,6 +431,7 @@ class EKFStack:
             self.x = -PX[:, :, n]
             self.P = np.ascontiguousarray(PX[:, :, :n])
         elif processed.any():
+            self._q_known = (None, self._q_known[1])
             self.x[processed] = -PX[processed, :, n]
             self.P[processed] = PX[processed, :, :n]
         for i, aq in enumerate(self.adaptive_q if self._any_adaptive else ()):

@@ -21,7 +21,7 @@ from fsw.interface import kinds
 from fsw.interface.messages import Measurement
 from fsw.models.environment import Environment
 from fsw.kernels.doppler import doppler_prediction
-from fsw.models.radiometric import uplink, uplinks
+from fsw.models.radiometric import solve_uplinks, uplink
 
 if TYPE_CHECKING:
     from fsw.filters.ekf import EKFStack
@@ -53,17 +53,19 @@ def predict_doppler(stack: EKFStack, station: str, t: float, count_s: float,
     :func:`fsw.kernels.doppler.doppler_prediction`)."""
     N, n = x.shape
     delta = np.ascontiguousarray(stack.clock_state(x, 0))
-    r_s, v_s, Yb = stack.count_start(t, count_s, x)
+    w = stack.doppler_work
     # both ends of the count in one light-time solution: [end, start]
-    r = np.empty((2, N, 3))
-    v = np.empty((2, N, 3))
-    r[0], r[1], v[0], v[1] = x[:, 0:3], r_s, x[:, 3:6], v_s
-    g = uplinks(stack.env, station, (t, t - count_s), r, v, delta)
+    z = w.z
+    z[0] = x[:, 0:6]
+    Yb = stack.count_start_into(t, count_s, x, z[1], w.Yb)
+    tt = w.tt
+    tt[0] = t
+    tt[1] = t - count_s
+    rho, ku, _, d_rho_d_delta = solve_uplinks(stack.env, station, tt, z, delta, work=w.uplinks)
     c0, c1 = stack.clock_columns or (0, 0)
     h = np.empty((N, 1))
     H = np.empty((N, 1, n))
-    doppler_prediction(g.rho, g.d_rho_d_r, g.d_rho_d_delta, delta, Yb if Yb.flags.c_contiguous else np.ascontiguousarray(Yb),
-                       stack.state_sources, x, float(count_s), c0, c1, C_KM_S, h, H)
+    doppler_prediction(rho, ku, d_rho_d_delta, delta, Yb, stack.state_sources, x, count_s, c0, c1, C_KM_S, h, H)
     return h, H
 
 
@@ -77,7 +79,18 @@ def doppler_clock_variance(stack: EKFStack, count_s: float) -> np.ndarray:
     (the Allan variance at τ = T of those two noises; 0.018 mm/s for a DSAC-class clock at
     60 s). Filters without clock states model no clock noise here."""
     q = stack.clock_q
-    return (C_KM_S**2 / count_s) * q[:, 0] + (C_KM_S**2 * count_s / 3.0) * q[:, 1]
+    key = (count_s, q.tobytes())  # what the result depends on (q is tunable in flight)
+    hit = _last_clock_variance[0]
+    if hit is not None and hit[0] == key:
+        return hit[1]
+    out = (C_KM_S**2 / count_s) * q[:, 0] + (C_KM_S**2 * count_s / 3.0) * q[:, 1]
+    out.flags.writeable = False  # handed out again for the next count of the same length
+    _last_clock_variance[0] = (key, out)
+    return out
+
+
+_last_clock_variance: list[tuple[tuple[float, bytes], np.ndarray] | None] = [None]
+
 
 
 def _check_station(meas: Measurement, env: Environment) -> None:
@@ -90,6 +103,8 @@ def _check_station(meas: Measurement, env: Environment) -> None:
 def count_time(meas: Measurement) -> float:
     """The Doppler count interval T [s]; refuses a missing, non-finite or non-positive one."""
     T = meas.count_time_s
+    if type(T) is float and 0.0 < T < math.inf:
+        return T
     # the message may not have been through the ICD's own checks: test the value, not its type hint
     if T is None or isinstance(T, bool) or not isinstance(T, (int, float)) or not math.isfinite(T) or T <= 0.0:
         raise MeasurementRejected("bad_count_time", f"Doppler needs a positive finite count_time_s, got {T!r}")

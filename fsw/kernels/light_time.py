@@ -49,13 +49,13 @@ def _planet_states(t, herm, t_first, step, pos, vel):
             vel[b, j] = v0 * herm[i, 0, c] + v1 * herm[i, 1, c] + v2 * herm[i, 2, c] + v3 * herm[i, 3, c]
 
 
-@njit("void(float64[::1], float64[:, :, ::1], float64[:, :, ::1], float64[::1], float64[:, :, ::1], float64, "
+@njit("void(float64[::1], float64[:, :, ::1], float64[::1], float64[:, :, ::1], float64, "
       "float64, float64, float64[:, :, ::1], float64[:, ::1], float64[::1])", cache=True)
-def uplink_reception(t_tags, r, v, delta, herm, t_first, step, c_km_s, r_sc, v_mars, t_g):
+def uplink_reception(t_tags, z, delta, herm, t_first, step, c_km_s, r_sc, v_mars, t_g):
     """r_sc (K, N, 3) the spacecraft at reception (SSB), v_mars (K, 3) Mars' SSB velocity and
-    t_g (K,) the reference transmit epochs, for states r, v (K, N, 3) at the time tags and clock
-    phases δ (N,)."""
-    K, N, _ = r.shape
+    t_g (K,) the reference transmit epochs, for states z = [r, v] (K, N, 6) at the time tags and
+    clock phases δ (N,)."""
+    K, N, _ = z.shape
     pos = np.empty((5, 3))
     vel = np.empty((5, 3))
     for k in range(K):
@@ -64,7 +64,7 @@ def uplink_reception(t_tags, r, v, delta, herm, t_first, step, c_km_s, r_sc, v_m
             v_mars[k, j] = vel[_MARS, j]
         for i in range(N):
             for j in range(3):
-                r_sc[k, i, j] = pos[_MARS, j] + r[k, i, j] - (v[k, i, j] + vel[_MARS, j]) * delta[i]
+                r_sc[k, i, j] = pos[_MARS, j] + z[k, i, j] - (z[k, i, 3 + j] + vel[_MARS, j]) * delta[i]
         g2 = 0.0
         for j in range(3):
             g = r_sc[k, 0, j] - pos[_EARTH, j]
@@ -75,10 +75,10 @@ def uplink_reception(t_tags, r, v, delta, herm, t_first, step, c_km_s, r_sc, v_m
 @njit("void(float64[::1], float64[::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, ::1], float64[::1], "
       "float64[:, :, ::1], float64, float64, float64[:, ::1], float64, float64, float64, float64, int64, "
       "float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, ::1])", cache=True)
-def uplink_light_time(t_tags, t_g, r_sc, v, v_mars, delta, herm, t_first, step, node, t_grid, omega, gm_sun,
+def uplink_light_time(t_tags, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, omega, gm_sun,
                       c_km_s, iterations, rho, ku, d_rho_d_v, d_rho_d_delta):
     """ρ (K, N), ∂ρ/∂r = k u, ∂ρ/∂v = −δ k u (K, N, 3) and ∂ρ/∂δ (K, N) of the uplinks whose reception is r_sc (K, N, 3)
-    with reference transmit epochs t_g (K,); ``node`` (4, 3) is the station's grid node
+    with reference transmit epochs t_g (K,), for states z = [r, v] (K, N, 6); ``node`` (4, 3) is the station's grid node
     [r0, k × r0, k (k·r0), dv] at t_grid (Rodrigues: r(Δt) = r0 cos θ + (k × r0) sin θ
     + k (k·r0)(1 − cos θ) + dv Δt, θ = ω Δt, and its exact rate)."""
     K, N, _ = r_sc.shape
@@ -137,6 +137,29 @@ def uplink_light_time(t_tags, t_g, r_sc, v, v_mars, delta, herm, t_first, step, 
                 kuj = kk * (D[j] / rr)
                 ku[k, i, j] = kuj
                 d_rho_d_v[k, i, j] = -delta[i] * kuj
-                dd += kuj * (v[k, i, j] + v_mars[k, j] - (V0[j] + (2.0 * A0[j]) * dt))
+                dd += kuj * (z[k, i, 3 + j] + v_mars[k, j] - (V0[j] + (2.0 * A0[j]) * dt))
             rho[k, i] = rr
             d_rho_d_delta[k, i] = -dd
+
+
+@njit("int64(float64[::1], float64[:, :, ::1], float64[::1], float64[:, :, ::1], float64, float64, float64, float64, "
+      "float64[:, ::1], float64, float64, float64, float64, int64, float64[:, :, ::1], float64[:, ::1], float64[::1], "
+      "float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, ::1])", cache=True)
+def uplink_solution(t_tags, z, delta, herm, t_first, step, lo_ok, hi_ok, node, t_grid, omega, gm_sun, c_km_s,
+                    iterations, r_sc, v_mars, t_g, rho, ku, d_rho_d_v, d_rho_d_delta):
+    """:func:`uplink_reception` then :func:`uplink_light_time` in one call, when the transmit epochs
+    t_g lie where the caller's table and station node serve: the table's interior [lo_ok, hi_ok]
+    (with the 1 s margin the table lookup asks for) and within 300 s less 1 ms of the node's epoch
+    t_grid (the node nearest t_g[0]; the 1 ms keeps clear of a tie). Returns 1 with only the
+    reception solved otherwise (the caller looks up table and node for t_g and finishes)."""
+    uplink_reception(t_tags, z, delta, herm, t_first, step, c_km_s, r_sc, v_mars, t_g)
+    lo = t_g[0]
+    hi = t_g[0]
+    for k in range(1, t_g.shape[0]):
+        lo = min(lo, t_g[k])
+        hi = max(hi, t_g[k])
+    if lo - 1.0 < lo_ok or hi + 1.0 > hi_ok or abs(t_g[0] - t_grid) >= 299.999:
+        return 1
+    uplink_light_time(t_tags, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, omega, gm_sun, c_km_s,
+                      iterations, rho, ku, d_rho_d_v, d_rho_d_delta)
+    return 0

@@ -30,24 +30,26 @@ configure_cache_dir()
 
 
 @njit(cache=True)
-def _row_of_phi(i, r, Y, src, c0, c1, h, row):
-    """Row r of Φ of filter i into ``row`` (n,)."""
-    n = row.shape[0]
-    row[:] = 0.0
-    if r < 6:
+def _phi_rows(i, Y, src, c0, c1, h, rows):
+    """Φ of filter i into ``rows`` (n, n), written element by element (a row view per row cost
+    more than the row's arithmetic)."""
+    n = rows.shape[0]
+    for r in range(n):
+        for col in range(n):
+            rows[r, col] = 0.0
+    for r in range(6):
         for col in range(n):
             j = src[col]
             if j >= 0:
-                row[col] = Y[i, r, j]
-    elif c0 <= r < c1:
-        k = r - c0
-        row[r] = 1.0
-        if k + 1 < c1 - c0:
-            row[r + 1] = h
-        if k + 2 < c1 - c0:
-            row[r + 2] = 0.5 * h * h
-    else:
-        row[r] = 1.0
+                rows[r, col] = Y[i, r, j]
+    for r in range(6, n):
+        rows[r, r] = 1.0
+        if c0 <= r < c1:
+            k = r - c0
+            if k + 1 < c1 - c0:
+                rows[r, r + 1] = h
+            if k + 2 < c1 - c0:
+                rows[r, r + 2] = 0.5 * h * h
 
 
 @njit("void(float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], int64[::1], int64, int64, "
@@ -69,9 +71,12 @@ def time_update(x, z1, P, Y, src, c0, c1, h, clock_q, snc, x_out, out):
                 x_out[i, c0 + 1] = x[i, c0 + 1] + h * x[i, c0 + 2]
     A = np.empty((n, n))  # Φ P
     rows = np.empty((n, n))  # Φ, row by row
+    nz = np.empty((n, n), dtype=np.int64)  # the columns of Φ's non-zero entries, row by row
+    nzc = np.empty(n, dtype=np.int64)
+    At = np.empty((n, n))  # (Φ P)ᵀ
+    acc = np.empty(n)
     for i in range(N):
-        for r in range(n):
-            _row_of_phi(i, r, Y, src, c0, c1, h, rows[r])
+        _phi_rows(i, Y, src, c0, c1, h, rows)
         for r in range(n):
             if r < 6 or c0 <= r < c1:
                 for c in range(n):
@@ -84,14 +89,33 @@ def time_update(x, z1, P, Y, src, c0, c1, h, clock_q, snc, x_out, out):
             else:
                 for c in range(n):
                     A[r, c] = P[i, r, c]
+        # (Φ P) Φᵀ over the non-zero entries of Φ's rows only, in the same order as the full sum
+        # (the skipped terms are exact zeros, as in Φ P above)
+        for s in range(n):
+            m = 0
+            for k in range(n):
+                if rows[s, k] != 0.0:
+                    nz[s, m] = k
+                    m += 1
+            nzc[s] = m
+        # every out[r, s] accumulates its terms in the same order as the plain row-by-row sum;
+        # running all r together (over Aᵀ's contiguous rows) lets the loop vectorise
         for r in range(n):
-            for s in range(n):
-                if s < 6 or c0 <= s < c1:
-                    acc = 0.0
-                    for k in range(n):
-                        acc += A[r, k] * rows[s, k]
-                    out[i, r, s] = acc
-                else:
+            for k in range(n):
+                At[k, r] = A[r, k]
+        for s in range(n):
+            if s < 6 or c0 <= s < c1:
+                for r in range(n):
+                    acc[r] = 0.0
+                for j in range(nzc[s]):
+                    k = nz[s, j]
+                    f = rows[s, k]
+                    for r in range(n):
+                        acc[r] += At[k, r] * f
+                for r in range(n):
+                    out[i, r, s] = acc[r]
+            else:
+                for r in range(n):
                     out[i, r, s] = A[r, s]
         dt = abs(h)
         if c1 > c0:

@@ -32,8 +32,7 @@ from fsw.astro.constants import OMEGA_EARTH_RAD_S, SECONDS_PER_DAY
 from fsw.astro.ephemeris import Ephemeris, EphemerisError, EphemerisTable, default_ephemeris
 from fsw.astro import asteroids
 from fsw.astro.moons import MOONS, moon_state
-from fsw.astro.earth import itrs_to_gcrs_matrix
-from fsw.astro.stations import StationError, station, station_states_icrf
+from fsw.astro.stations import StationError, station, station_states_and_pole_icrf
 from fsw.models.vector import cross
 
 #: Bodies of the table, in row order.
@@ -60,6 +59,7 @@ class Environment:
         self._stations: OrderedDict[tuple[str, float], tuple[np.ndarray, ...]] = OrderedDict()
         self._station_arrays: dict[tuple[str, float], np.ndarray] = {}
         self._station_names: dict[str, str] = {}  # spellings seen -> canonical name
+        self._last_node: tuple[float, str, np.ndarray] = (np.nan, "", np.empty((4, 3)))
 
     # -- planets --------------------------------------------------------------------------------
     def _table_for(self, t_lo: float, t_hi: float) -> EphemerisTable:
@@ -152,17 +152,17 @@ class Environment:
         hit = self._stations.get(key)
         if hit is None:
             grid = t_grid + _STATION_GRID_S * np.arange(_STATION_PREFETCH)
-            r0, v0 = station_states_icrf(name, grid)
-            k = itrs_to_gcrs_matrix(grid)[:, :, 2]
+            r0, v0, k = station_states_and_pole_icrf(name, grid)
             kxr = cross(k, r0)
             kkr = k * np.vecdot(k, r0)[:, None]
             # what the rotation about k does not explain (pole motion, rate terms, ~1e-8 km/s)
             # is carried as a constant velocity
             dv = v0 - OMEGA_EARTH_RAD_S * kxr
+            stacked = np.stack((r0, kxr, kkr, dv), axis=1)  # (prefetch, 4, 3): node j is stacked[j]
             for j, tj in enumerate(grid.tolist()):
-                node = (r0[j], kxr[j], kkr[j], dv[j])
-                self._stations[(name, tj)] = node
-                self._station_arrays[(name, tj)] = np.ascontiguousarray(np.stack(node))
+                self._stations[(name, tj)] = (r0[j], kxr[j], kkr[j], dv[j])
+                self._station_arrays[(name, tj)] = stacked[j]
+            self._last_node = (np.nan, "", self._last_node[2])  # it may be evicted below
             while len(self._stations) > 256:
                 evicted, _ = self._stations.popitem(last=False)
                 self._station_arrays.pop(evicted, None)
@@ -173,12 +173,29 @@ class Environment:
         """The station's grid node nearest t_ref as a (4, 3) array [r0, k × r0, k (k·r0), dv]
         and its epoch (what :meth:`station_gcrs` rotates; for the compiled light-time kernel)."""
         t_grid = round(t_ref / _STATION_GRID_S) * _STATION_GRID_S
+        last = self._last_node
+        if last[0] == t_grid and last[1] == name:
+            return last[2], t_grid
         key = (name, t_grid)
         node = self._station_arrays.get(key)
         if node is None or key not in self._stations:
             self._station_node(name, t_grid)
             node = self._station_arrays[key]
+        # a pass asks for the same node for ten minutes of measurements
+        self._last_node = (t_grid, name, node)
         return node, t_grid
+
+    def last_station_node(self, name: str) -> tuple[np.ndarray, float] | None:
+        """The node :meth:`station_node` last returned and its epoch, if it was for ``name`` (the
+        node it returns again for any t_ref nearest that epoch)."""
+        t_grid, last, node = self._last_node
+        return (node, t_grid) if last == name else None
+
+    def hermite_window(self, t_lo: float, t_hi: float) -> tuple[np.ndarray, float, float, float, float]:
+        """:meth:`hermite_nodes` and the span [lo, hi] inside which later lookups use the same
+        table (outside it the table is rebuilt first)."""
+        tab = self._table_for(t_lo, t_hi)
+        return self._hermite, tab.t_first, tab.step, tab.t_first + 3 * self._step, tab.t_last - 3 * self._step
 
     def hermite_nodes(self, t_lo: float, t_hi: float) -> tuple[np.ndarray, float, float]:
         """The table's Hermite nodes (intervals, 4, 15) covering [t_lo, t_hi], its first epoch and

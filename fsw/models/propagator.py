@@ -85,9 +85,15 @@ class Propagator:
         """
         z = np.concatenate((r, v), axis=1)
         Y = np.empty((r.shape[0], 6, 6 + q.shape[1]))
+        self.propagate_z(t0, t1, z, q if q.flags.c_contiguous else np.ascontiguousarray(q), Y, with_stm)
+        return z[:, 0:3], z[:, 3:6], Y if with_stm else None
+
+    def propagate_z(self, t0: float, t1: float, z: np.ndarray, q: np.ndarray, Y: np.ndarray,
+                    with_stm: bool = True) -> None:
+        """:meth:`propagate` in place for the hot loop: z = [r, v] (N, 6) from t0 to t1, Y (N, 6, 6 + n_q)
+        filled (with ``with_stm``); z, q and Y float64 and C-contiguous."""
         lo, hi = (t0, t1) if t0 <= t1 else (t1, t0)
         p_tab, v_tab, tab_t0, tab_step = self.env.table_nodes(lo, hi)
-        rk4_variational(t0, t1, z, q if q.flags.c_contiguous else np.ascontiguousarray(q), with_stm, self._srp,
-                        self._acs_nominal, self._acs_body, self._deg, self._poly_batch, self._poly_origin,
-                        self.kappa, self.max_step, self.frozen_gradient_tol, p_tab, v_tab, tab_t0, tab_step, _GM, Y)
-        return z[:, 0:3], z[:, 3:6], Y if with_stm else None
+        rk4_variational(t0, t1, z, q, with_stm, self._srp, self._acs_nominal, self._acs_body, self._deg,
+                        self._poly_batch, self._poly_origin, self.kappa, self.max_step, self.frozen_gradient_tol,
+                        p_tab, v_tab, tab_t0, tab_step, _GM, Y)

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsw.astro.constants import C_KM_S, GM_SUN, OMEGA_EARTH_RAD_S
-from fsw.kernels.light_time import uplink_light_time, uplink_reception
+from fsw.kernels.light_time import uplink_light_time, uplink_reception, uplink_solution
 from fsw.models.environment import Environment
 
 
@@ -70,28 +70,53 @@ def uplinks(env: Environment, station: str, t_tags: Iterable[float], r: np.ndarr
     station is taken from the one grid node nearest the first t_g, so every filter uses one
     expansion.
     """
-    ts = [float(t) for t in t_tags]
-    tt = np.array(ts)
-    K = tt.shape[0]
-    N = delta.shape[0]
-    r = np.ascontiguousarray(r, dtype=float)
-    v = np.ascontiguousarray(v, dtype=float)
-    delta = np.ascontiguousarray(delta, dtype=float)
-    herm, t_first, step = env.hermite_nodes(min(ts) - 1.0, max(ts) + 1.0)
-    r_sc = np.empty((K, N, 3))
-    v_mars = np.empty((K, 3))
-    t_g = np.empty(K)
-    uplink_reception(tt, r, v, delta, herm, t_first, step, C_KM_S, r_sc, v_mars, t_g)
+    tt = np.array([float(t) for t in t_tags])
+    z = np.concatenate((np.asarray(r, dtype=float), np.asarray(v, dtype=float)), axis=2)
+    rho, ku, d_rho_d_v, d_rho_d_delta = solve_uplinks(env, station, tt, z,
+                                                      np.ascontiguousarray(delta, dtype=float), iterations)
+    return UplinkGeometry(rho=rho, d_rho_d_r=ku, d_rho_d_v=d_rho_d_v, d_rho_d_delta=d_rho_d_delta)
+
+
+class UplinkWork:
+    """Arrays :func:`solve_uplinks` fills for K epochs and N filters, kept by a caller that solves
+    the same shape for every measurement (its results are read before the next solution)."""
+
+    def __init__(self, K: int, N: int):
+        self.r_sc = np.empty((K, N, 3))
+        self.v_mars = np.empty((K, 3))
+        self.t_g = np.empty(K)
+        self.rho = np.empty((K, N))
+        self.ku = np.empty((K, N, 3))
+        self.d_rho_d_v = np.empty((K, N, 3))
+        self.d_rho_d_delta = np.empty((K, N))
+
+
+def solve_uplinks(env: Environment, station: str, tt: np.ndarray, z: np.ndarray, delta: np.ndarray,
+                  iterations: int = 2, work: UplinkWork | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`uplinks` for the hot loop: time tags tt (K,), states z = [r, v] (K, N, 6) and δ (N,),
+    all float64 and C-contiguous; returns (ρ, k u, −δ k u, ∂ρ/∂δ), in ``work``'s arrays if given."""
+    K, N, _ = z.shape
+    ts = tt.tolist()
+    herm, t_first, step, lo_ok, hi_ok = env.hermite_window(min(ts) - 1.0, max(ts) + 1.0)
+    w = work if work is not None else UplinkWork(K, N)
+    r_sc, v_mars, t_g = w.r_sc, w.v_mars, w.t_g
+    last = env.last_station_node(station)
+    if last is not None:
+        # usually the transmit epochs need neither another table nor another node: one call
+        if uplink_solution(tt, z, delta, herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S,
+                           GM_SUN, C_KM_S, iterations, r_sc, v_mars, t_g, w.rho, w.ku, w.d_rho_d_v,
+                           w.d_rho_d_delta) == 0:
+            return w.rho, w.ku, w.d_rho_d_v, w.d_rho_d_delta
+    else:
+        uplink_reception(tt, z, delta, herm, t_first, step, C_KM_S, r_sc, v_mars, t_g)
     tg = t_g.tolist()
     herm, t_first, step = env.hermite_nodes(min(tg) - 1.0, max(tg) + 1.0)
     node, t_grid = env.station_node(station, tg[0])
-    rho = np.empty((K, N))
-    ku = np.empty((K, N, 3))
-    d_rho_d_v = np.empty((K, N, 3))
-    d_rho_d_delta = np.empty((K, N))
-    uplink_light_time(tt, t_g, r_sc, v, v_mars, delta, herm, t_first, step, node, t_grid, OMEGA_EARTH_RAD_S,
+    rho, ku, d_rho_d_v, d_rho_d_delta = w.rho, w.ku, w.d_rho_d_v, w.d_rho_d_delta
+    uplink_light_time(tt, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, OMEGA_EARTH_RAD_S,
                       GM_SUN, C_KM_S, iterations, rho, ku, d_rho_d_v, d_rho_d_delta)
-    return UplinkGeometry(rho=rho, d_rho_d_r=ku, d_rho_d_v=d_rho_d_v, d_rho_d_delta=d_rho_d_delta)
+    return rho, ku, d_rho_d_v, d_rho_d_delta
 
 
 def uplink(env: Environment, station: str, t_tag: float, r: np.ndarray, v: np.ndarray, delta: np.ndarray,
