@@ -13,6 +13,7 @@ run differs from the un-faulted one with the same seed *only* by the fault.
 
 from __future__ import annotations
 
+import gc
 import heapq
 import math
 from dataclasses import dataclass, field
@@ -172,7 +173,20 @@ def leo_run(cfg: SimConfig, seed: int) -> SimRun:
 
 
 def generate(cfg: SimConfig = SimConfig(), faults: tuple[FaultConfig, ...] | None = None, seed: int = 0) -> SimRun:
-    """Simulate one run. ``faults`` replaces ``cfg.faults`` when given (e.g. a preset)."""
+    """Simulate one run. ``faults`` replaces ``cfg.faults`` when given (e.g. a preset).
+
+    The cyclic collector is held off while the run is made: its ~100k acyclic messages would
+    otherwise trigger repeated full passes (~0.09 s of a ~0.65 s default run)."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        return _generate(cfg, faults, seed)
+    finally:
+        if was_enabled:
+            gc.enable()
+
+
+def _generate(cfg: SimConfig, faults: tuple[FaultConfig, ...] | None, seed: int) -> SimRun:
     if cfg.leo is not None:
         if faults:
             raise ValueError("faults are not available in the Earth-orbit (leo) case")
