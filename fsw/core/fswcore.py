@@ -228,12 +228,15 @@ class FswCore:
         what the process keeps — loaded code and kernels, the caches of pure functions — and
         the environment's tables when the job is next in line. A warm-up that fails is ignored."""
         self._warm_kinds.add(meas.kind)  # type: ignore[union-attr]
-        env = self.bank.stack.env
         # With nothing queued, the next calls the core makes on its environment are this job's,
         # the very calls the copy makes: sharing the environment then leaves it as the job
         # itself would (the ephemeris table built where the job would build it), and the job
-        # finds it ready. With jobs queued, their calls come first: the copy gets its own.
-        clone = copy.deepcopy(self, {id(env): env} if self.executive.pending_jobs == 0 else None)
+        # finds it ready. With jobs queued, their calls come first: the copy gets its own. The
+        # Earth-orbit bank has no ephemeris environment to share.
+        stack = getattr(self.bank, "stack", None)
+        env = getattr(stack, "env", None)
+        share = env is not None and self.executive.pending_jobs == 0
+        clone = copy.deepcopy(self, {id(env): env} if share else None)
         clone._sink = lambda topic, msg: None
         clone._warm_kinds = None
         job = Job(meas.t_s, clone._stages_now(), str(meas.seq), JobContext(meas))
