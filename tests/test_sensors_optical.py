@@ -184,3 +184,15 @@ def test_beacon_visibility_rules():
     # a beacon opposite the Sun's side at large phase: Sun beyond the beacon
     sun_behind_beacon = far_off * 3.0
     assert len(_run(BeaconScene(mars, sun_behind_beacon, far_off), sun_exclusion_deg=0.0, **kw)) == 0
+
+
+def test_stacked_quaternions_equal_matrix_to_quat_bit_for_bit_on_every_branch():
+    from fsw.astro.frames import matrix_to_quat, quat_to_matrix
+    from sim.sensors.optical import _matrices_to_quats
+    q = np.random.default_rng(1).standard_normal((4000, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    m = quat_to_matrix(q)
+    diag = np.stack([np.trace(m, axis1=1, axis2=2), m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
+    assert set(np.argmax(diag, axis=1).tolist()) == {0, 1, 2, 3}
+    assert np.array_equal(_matrices_to_quats(m), np.array([matrix_to_quat(x) for x in m]))
+    assert _matrices_to_quats(np.zeros((0, 3, 3))).shape == (0, 4)

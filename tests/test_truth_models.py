@@ -97,3 +97,29 @@ def test_truth_and_onboard_differ_by_the_documented_amounts():
         assert 0.01 < diffs[("moons", f"{moon} position")].maximum < 1.0  # m
     pole = diffs[("Mars orientation", "north pole direction (onboard fixed at J2000, truth drifting)")]
     assert 0.01 < pole.maximum < 0.03  # deg
+
+
+def test_many_epoch_tdb_to_tt_is_bit_identical_to_the_direct_series():
+    import erfa
+    from sim.truth import timescales
+    rng = np.random.default_rng(5)
+    for lo, span in ((5.9e8, 45 * 86400.0), (-2e8, 3e6), (1.2e9, 1e6), (0.0, 8e5)):
+        t = rng.uniform(lo, lo + span, 30000)
+        direct = t - np.asarray(erfa.dtdb(timescales.JD_J2000, t / 86400.0, 0.0, 0.0, 0.0, 0.0))
+        assert np.array_equal(timescales.tdb_to_tt(t), direct)
+
+
+def test_hourly_cubic_of_tdb_minus_tt_is_far_inside_the_bound_the_shortcut_assumes():
+    import erfa
+    from sim.truth import timescales
+    t = np.linspace(-3e8, 1.5e9, 400001) + 1234.5
+    k0 = np.floor(t.min() / 3600.0) - 1
+    x = t / 3600.0 - k0
+    k = np.floor(x).astype(np.int64)
+    u = x - k
+    nodes = np.asarray(erfa.dtdb(timescales.JD_J2000, (k0 + np.arange(k.max() + 3)) * 3600.0 / 86400.0, 0.0, 0.0, 0.0, 0.0))
+    p0, p1, p2, p3 = nodes[k - 1], nodes[k], nodes[k + 1], nodes[k + 2]
+    d = (-u * (u - 1) * (u - 2) / 6 * p0 + (u + 1) * (u - 1) * (u - 2) / 2 * p1
+         - (u + 1) * u * (u - 2) / 2 * p2 + (u + 1) * u * (u - 1) / 6 * p3)
+    err = np.abs(d - np.asarray(erfa.dtdb(timescales.JD_J2000, t / 86400.0, 0.0, 0.0, 0.0, 0.0)))
+    assert err.max() < 1e-3 * timescales._BOUND_S

@@ -48,7 +48,7 @@ class Scene:
         """Elevation [rad] (N,) of geocentric targets (N, 3) above the station's WGS84 horizon."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         st = truth_station(name)
-        m, _ = self._earth.matrices(t)
+        m = self._earth.rotation(t)
         pos = (m @ st.itrs_km(t)[..., None])[..., 0]
         up = m @ st.up_itrs(float(t[0])) if t.size else np.zeros((0, 3))
         los = np.asarray(target_geocentric_km, dtype=float) - pos
@@ -77,7 +77,9 @@ class Scene:
 
         def position(t: np.ndarray) -> np.ndarray:
             t = np.atleast_1d(np.asarray(t, dtype=float))
-            return self.body("earth", t) + self.station_gcrs(name, t)[0]
+            # the rotation alone: the same product M r as station_gcrs' position, without the rate
+            gcrs = (self._earth.rotation(t) @ truth_station(name).itrs_km(t)[..., None])[..., 0]
+            return self.body("earth", t) + gcrs
 
         return position
 
@@ -89,6 +91,19 @@ class Scene:
             return self.body_velocity("earth", t) + self.station_gcrs(name, t)[1]
 
         return velocity
+
+    def station_state(self, name: str) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """t -> barycentric (position, velocity) (N, 3) each of DSN station ``name``: the values of
+        :meth:`station` and :meth:`station_velocity`, from one Earth orientation and one ephemeris
+        evaluation instead of two."""
+
+        def state(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            t = np.atleast_1d(np.asarray(t, dtype=float))
+            p_earth, v_earth = self._table.state("earth", t)
+            p, v = self.station_gcrs(name, t)
+            return p_earth + p, v_earth + v
+
+        return state
 
     def target(self, name: str) -> Callable[[np.ndarray], np.ndarray]:
         """t -> barycentric position (N, 3) of an optical target: ``mars``, ``phobos``, ``deimos``

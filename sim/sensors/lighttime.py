@@ -30,6 +30,7 @@ import numpy as np
 from fsw.astro.constants import C_KM_S
 
 PositionFn = Callable[[np.ndarray], np.ndarray]
+StateFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
 class LightTimeError(ValueError):
@@ -43,12 +44,15 @@ def light_time(
     emitter_velocity: PositionFn | None = None,
     tol_s: float = 1e-11,
     max_iter: int = 12,
+    emitter_state: StateFn | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Light time tau [s] and emitter position r_tx(t_rx - tau) [km] for each reception.
 
     ``t_rx`` (N,) TDB seconds; ``receiver_at_rx`` (N, 3) receiver positions at t_rx;
     ``emitter(t)`` maps (N,) times to (N, 3) positions in the same frame, and
     ``emitter_velocity(t)`` (optional) to velocities [km/s] for the sub-resolution correction.
+    ``emitter_state(t)`` (optional, used instead of both inside the iteration) gives their
+    (position, velocity) at once, for emitters whose two share most of their cost.
     """
     t_rx = np.asarray(t_rx, dtype=float)
     r_rx = np.asarray(receiver_at_rx, dtype=float)
@@ -58,9 +62,13 @@ def light_time(
     tau = np.linalg.norm(r_rx - r_tx, axis=-1) / C_KM_S
     for _ in range(max_iter):
         t_tx = t_rx - tau
-        r_tx = emitter(t_tx)
-        if emitter_velocity is not None:
-            r_tx = r_tx + emitter_velocity(t_tx) * ((t_rx - t_tx) - tau)[:, None]
+        if emitter_state is not None:
+            r_tx, v_tx = emitter_state(t_tx)
+            r_tx = r_tx + v_tx * ((t_rx - t_tx) - tau)[:, None]
+        else:
+            r_tx = emitter(t_tx)
+            if emitter_velocity is not None:
+                r_tx = r_tx + emitter_velocity(t_tx) * ((t_rx - t_tx) - tau)[:, None]
         new = np.linalg.norm(r_rx - r_tx, axis=-1) / C_KM_S
         done = np.max(np.abs(new - tau), initial=0.0) <= tol_s
         tau = new

@@ -66,7 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsw.astro.constants import R_MARS_EQ_KM
-from fsw.astro.frames import matrix_to_quat
+from fsw.astro.frames import FrameError
 from sim.sensors import asteroids
 from sim.sensors.camera import pointing_frame, project, small_rotation
 from sim.sensors.config import OpticalConfig
@@ -165,6 +165,40 @@ def _empty() -> OpticalData:
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _matrices_to_quats(m: np.ndarray) -> np.ndarray:
+    """:func:`fsw.astro.frames.matrix_to_quat` of each matrix (N, 3, 3) -> (N, 4): the same
+    Shepperd branches and arithmetic, element for element, on the whole stack at once."""
+    if m.shape[0] == 0:
+        return np.zeros((0, 4))
+    if not np.all(np.isfinite(m)) or np.any(np.abs(np.linalg.det(m) - 1.0) > 1e-6):
+        raise FrameError("not a proper rotation matrix")
+    tr = np.trace(m, axis1=1, axis2=2)
+    k = np.argmax(np.stack([tr, m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1), axis=1)
+    q = np.empty((m.shape[0], 4))
+    for branch in range(4):
+        sel = k == branch
+        if not sel.any():
+            continue
+        a, t = m[sel], tr[sel]
+        d21, d02, d10 = a[:, 2, 1] - a[:, 1, 2], a[:, 0, 2] - a[:, 2, 0], a[:, 1, 0] - a[:, 0, 1]
+        s01, s02, s12 = a[:, 0, 1] + a[:, 1, 0], a[:, 0, 2] + a[:, 2, 0], a[:, 1, 2] + a[:, 2, 1]
+        if branch == 0:
+            w = 0.5 * np.sqrt(1.0 + t)
+            q[sel] = np.column_stack((w, d21 / (4 * w), d02 / (4 * w), d10 / (4 * w)))
+        elif branch == 1:
+            x = 0.5 * np.sqrt(1.0 + 2 * a[:, 0, 0] - t)
+            q[sel] = np.column_stack((d21 / (4 * x), x, s01 / (4 * x), s02 / (4 * x)))
+        elif branch == 2:
+            y = 0.5 * np.sqrt(1.0 + 2 * a[:, 1, 1] - t)
+            q[sel] = np.column_stack((d02 / (4 * y), s01 / (4 * y), y, (a[:, 1, 2] + a[:, 2, 1]) / (4 * y)))
+        else:
+            z = 0.5 * np.sqrt(1.0 + 2 * a[:, 2, 2] - t)
+            q[sel] = np.column_stack((d10 / (4 * z), s02 / (4 * z), s12 / (4 * z), z))
+    # the norm as np.linalg.norm takes it of one quaternion (a dot product of the row), row by row
+    q /= np.sqrt(np.array([row.dot(row) for row in q]))[:, None]
+    return np.where(q[:, :1] < 0, -q, q)
 
 
 def simulate_optical(
@@ -301,7 +335,7 @@ def simulate_optical(
     sig_sample = np.sqrt(sig_c**2 + (f_px * s[:, 1]) ** 2 + (s[:, 2] * off[:, 1]) ** 2)
     sig_line = np.sqrt(sig_c**2 + (f_px * s[:, 0]) ** 2 + (s[:, 2] * off[:, 0]) ** 2)
     measured = cat["meas"] + sig_c[:, None] * z_cen[slot]
-    quats = np.array([matrix_to_quat(m) for m in cat["known"]]).reshape(-1, 4)
+    quats = _matrices_to_quats(np.asarray(cat["known"], dtype=float).reshape(-1, 3, 3))
     return OpticalData(
         t_rx=t[slot],
         target=target,

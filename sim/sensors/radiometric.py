@@ -149,7 +149,7 @@ def uplink(scene: Scene, station: str, t_rx: np.ndarray) -> tuple[np.ndarray, np
     """Uplink light time [s] and station elevation at transmit [rad] for receptions at t_rx."""
     t_rx = np.asarray(t_rx, dtype=float)
     r_sc = scene.sc(t_rx)
-    tau, _ = light_time(t_rx, r_sc, scene.station(station), scene.station_velocity(station))
+    tau, _ = light_time(t_rx, r_sc, scene.station(station), emitter_state=scene.station_state(station))
     t_tx = t_rx - tau
     geocentric_target = r_sc - scene.body("earth", t_tx)
     el = scene.elevation(station, t_tx, geocentric_target)

@@ -23,6 +23,7 @@ surface); the pole's rate (~2 mas/day, < 1e-9 km/s) is left out.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import erfa
 import numpy as np
@@ -64,6 +65,20 @@ def _r3(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return m, d
 
 
+@lru_cache(maxsize=8)
+def _node_table(k0: int, n: int) -> np.ndarray:
+    """X, Y, s and TDB-TT at the hourly nodes k0 .. k0+n-1 (read-only; every run of a scenario
+    flies the same span, so a campaign pays the ~50 ms of the full series once per process)."""
+    t_nodes = (k0 + np.arange(n)) * _NODE_S
+    dtdb = erfa.dtdb(JD_J2000, t_nodes / SECONDS_PER_DAY, 0.0, 0.0, 0.0, 0.0)
+    tt = t_nodes - dtdb
+    x, y, s = erfa.xys06a(JD_J2000, tt / SECONDS_PER_DAY)
+    # columns: X, Y, s, TDB-TT at each node (s and TDB-TT are smooth enough for the same cubic)
+    nodes = np.column_stack([x, y, s, dtdb])
+    nodes.flags.writeable = False
+    return nodes
+
+
 class EarthOrientation:
     """ITRS -> GCRS over [t_start, t_end] (TDB seconds past J2000)."""
 
@@ -74,11 +89,7 @@ class EarthOrientation:
         n = math.ceil(t_end / _NODE_S) + 3 - self.k0
         t_nodes = (self.k0 + np.arange(n)) * _NODE_S
         self.t_first, self.t_last = float(t_nodes[1]), float(t_nodes[-3])
-        dtdb = erfa.dtdb(JD_J2000, t_nodes / SECONDS_PER_DAY, 0.0, 0.0, 0.0, 0.0)
-        tt = t_nodes - dtdb
-        x, y, s = erfa.xys06a(JD_J2000, tt / SECONDS_PER_DAY)
-        # columns: X, Y, s, TDB-TT at each node (s and TDB-TT are smooth enough for the same cubic)
-        self._nodes = np.column_stack([x, y, s, dtdb])
+        self._nodes = _node_table(self.k0, n)
 
     def _interp(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if not np.all(np.isfinite(t)):
@@ -91,8 +102,13 @@ class EarthOrientation:
         val, slope = _lagrange4(self._nodes, k, x - k)
         return val, slope / _NODE_S
 
-    def matrices(self, t_tdb) -> tuple[np.ndarray, np.ndarray]:
-        """ITRS -> GCRS rotation M (N, 3, 3) and its time derivative dM/dt at t (N,)."""
+    def rotation(self, t_tdb) -> np.ndarray:
+        """ITRS -> GCRS rotation M (N, 3, 3) at t (N,): :meth:`matrices` without the rate."""
+        return self.matrices(t_tdb, rate=False)[0]
+
+    def matrices(self, t_tdb, rate: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """ITRS -> GCRS rotation M (N, 3, 3) and its time derivative dM/dt at t (N,) (zeros
+        when ``rate`` is False)."""
         t = np.atleast_1d(np.asarray(t_tdb, dtype=float))
         val, slope = self._interp(t)
         tt = t - val[:, 3]
@@ -100,16 +116,18 @@ class EarthOrientation:
         eop = eop_at_tai(tai)
         X, Y, s = val[:, 0] + eop.dx, val[:, 1] + eop.dy, val[:, 2]
         q = np.swapaxes(erfa.c2ixys(X, Y, s), -1, -2)  # CIRS -> GCRS
-        h = 60.0  # the slope of Q from the cubic's slope: one minute each side is linear to 1e-16
-        q_p = np.swapaxes(erfa.c2ixys(X + h * slope[:, 0], Y + h * slope[:, 1], s + h * slope[:, 2]), -1, -2)
-        q_m = np.swapaxes(erfa.c2ixys(X - h * slope[:, 0], Y - h * slope[:, 1], s - h * slope[:, 2]), -1, -2)
-        dq = (q_p - q_m) / (2 * h)
         ut1 = tai + eop.ut1_minus_tai
         day = np.floor(ut1 / SECONDS_PER_DAY)  # whole days apart keep the fraction's resolution (1e-11 s)
         era = np.asarray(erfa.era00(JD_J2000 + day, (ut1 - day * SECONDS_PER_DAY) / SECONDS_PER_DAY))
         r, dr = _r3(era)
         w = np.swapaxes(erfa.pom00(eop.xp, eop.yp, erfa.sp00(JD_J2000, tt / SECONDS_PER_DAY)), -1, -2)  # ITRS -> TIRS
         m = q @ r @ w
+        if not rate:
+            return m, np.zeros_like(m)
+        h = 60.0  # the slope of Q from the cubic's slope: one minute each side is linear to 1e-16
+        q_p = np.swapaxes(erfa.c2ixys(X + h * slope[:, 0], Y + h * slope[:, 1], s + h * slope[:, 2]), -1, -2)
+        q_m = np.swapaxes(erfa.c2ixys(X - h * slope[:, 0], Y - h * slope[:, 1], s - h * slope[:, 2]), -1, -2)
+        dq = (q_p - q_m) / (2 * h)
         dm = q @ (dr * (_ERA_RATE * (1.0 + eop.ut1_rate))[:, None, None]) @ w + dq @ r @ w
         return m, dm
 
