@@ -44,6 +44,7 @@ from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.filters.bank import FilterBank, FilterEstimate
 from fsw.filters.orbit_bank import OrbitBank
 from fsw.filters.errors import MeasurementRejected
+from fsw.filters.record import BankRecord
 from fsw.gating.base import GatingError, GatingNetwork, WeightsUpdate, check_record
 from fsw.gating.registry import make_network
 from fsw.ingest import SequenceGuard
@@ -52,6 +53,10 @@ from fsw.interface import codec, messages as m, topics
 
 class FswCore:
     """Bank + gating + detector + executive; emits ICD telemetry through ``emit(topic, msg)``."""
+
+    #: Ground observers of every bank record the core makes (post-processing re-runs, e.g. EM
+    #: tuning); never set onboard. A start-up warm-up copy has none: what it flies is thrown away.
+    record_taps: tuple[Callable[[BankRecord], None], ...] = ()
 
     def __init__(self, config: FswConfig, emit: Emit, *, run_id: str = "run",
                  clock: Callable[[], float] = time.thread_time):
@@ -238,6 +243,7 @@ class FswCore:
         share = env is not None and self.executive.pending_jobs == 0
         clone = copy.deepcopy(self, {id(env): env} if share else None)
         clone._sink = lambda topic, msg: None
+        clone.record_taps = ()
         clone._warm_kinds = None
         job = Job(meas.t_s, clone._stages_now(), str(meas.seq), JobContext(meas))
         for stage in job.stages:
@@ -300,6 +306,8 @@ class FswCore:
         except MeasurementRejected as exc:
             self.counters.bank_rejected[exc.reason] += 1
             return
+        for tap in self.record_taps:
+            tap(ctx.record)
         if self.config.telemetry.residuals_every_s is not None:
             self._residuals.append(residual_sample(ctx.record, ctx.meas.source))
         if self.rqp.enabled:

@@ -19,7 +19,7 @@ from fsw.core import FswCore
 from fsw.filters.record import BankRecord
 from fsw.gating.magill import gaussian_log_likelihood
 from fsw.interface import topics
-from fsw.interface.messages import FilterWeights, Measurement
+from fsw.interface.messages import FilterWeights
 from ground.replay.fsw_config import load_fsw_config
 from ground.replay.recording import run_info
 from ground.replay.rerun import recorded_commands, recorded_measurement_stream, rerun_fsw
@@ -60,14 +60,7 @@ def recorded_hierarchy(path: str | os.PathLike, network: str = "hierarchical") -
     records: list[BankRecord] = []
 
     def tap(core: FswCore) -> None:
-        process = core.bank.process
-
-        def processed(meas: Measurement) -> BankRecord:
-            rec = process(meas)
-            records.append(rec)
-            return rec
-
-        core.bank.process = processed  # type: ignore[method-assign]
+        core.record_taps = (records.append,)
 
     res = rerun_fsw(config, stream, run_id=info.run_id or "rerun", commands=recorded_commands(path), observe=tap)
     wtopic = f"{topics.FSW_WEIGHTS}/{network}"
