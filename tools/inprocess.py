@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import gc
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator
+from typing import Any, Callable
 
 from fsw.core import FswCore, stamp
+from fsw.core.pipeline import no_gc_pauses
 from fsw.interface import messages as m, topics
 from sim.stream import SimRun, generate
 from tools.scenario import ScenarioConfig, resolve
@@ -56,30 +56,19 @@ def sim_status(run: SimRun, run_id: str, state: m.RunState) -> m.RunStatus:
                                "fault_events": len(run.fault_events)})
 
 
-@contextmanager
-def _collector_held_off() -> Iterator[None]:
-    """Hold the cyclic garbage collector off for one run and collect once at its end.
-
-    A run keeps every message it makes (tens of thousands of objects), so the collector's full
-    passes, triggered by that growth, re-scan all of them again and again: measured 1.1 s of a
-    6.4 s CPU default run. A run leaves only a few thousand cyclic objects (3,895 measured), so
-    one collection at the end frees the same memory."""
-    was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was_enabled:
-            gc.enable()
-            gc.collect()
-
-
 def run_in_process(cfg: ScenarioConfig, seed: int | None = None, *, fault_label: str | None = None,
                    run_id: str = "inprocess", progress: Callable[[float], None] | None = None,
                    keep_sim: bool = False) -> RunResult:
     """Simulate and fly one run in this process; returns all messages and the summary."""
-    with _collector_held_off():
-        return _run(cfg, seed, fault_label=fault_label, run_id=run_id, progress=progress, keep_sim=keep_sim)
+    # The collector is held off for the whole run, not only the frames: a run keeps every message
+    # it makes, so full passes triggered by that growth re-scan all of them again and again
+    # (measured 1.1 s of a 6.4 s CPU default run); a run leaves only a few thousand cyclic objects
+    # (3,895 measured), which one collection at its end frees.
+    try:
+        with no_gc_pauses():
+            return _run(cfg, seed, fault_label=fault_label, run_id=run_id, progress=progress, keep_sim=keep_sim)
+    finally:
+        gc.collect()
 
 
 def _run(cfg: ScenarioConfig, seed: int | None, *, fault_label: str | None, run_id: str,
