@@ -63,7 +63,9 @@ def _check_whole_lines(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_interrupt_resume_failures_and_rerun_failed(tmp_path, short_scenario):
-    (tmp_path / "short.yaml").write_text(short_scenario())
+    # 20 days: a run must take a few seconds for the signals below to land while one flies (the
+    # compiled FSW flies the default two days in well under a second)
+    (tmp_path / "short.yaml").write_text(short_scenario(span_days=20.0))
     (tmp_path / "c.yaml").write_text(CAMPAIGN)
 
     # 1. one Ctrl-C: stop submitting, let the running run finish, exit 130

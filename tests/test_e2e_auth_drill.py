@@ -183,7 +183,10 @@ def test_uninvited_peer_cannot_command_or_forge(tmp_path, short_scenario):
 
     run_id = f"drill-{os.getpid()}"
     out = tmp_path / "attacked"
-    proc = subprocess.Popen(_navbank("run", "--scenario", str(scen), "--out", str(out), "--run-id", run_id, "--quiet"),
+    # paced to ~60 s of wall time so that the run is still flying when the attacks (a few seconds)
+    # are over: unpaced, the compiled FSW flies the 30 days faster than that
+    proc = subprocess.Popen(_navbank("run", "--scenario", str(scen), "--out", str(out), "--run-id", run_id, "--quiet",
+                                     "--rate", f"{30 * 86400 / 60.0:g}"),
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         deadline = time.monotonic() + 60

@@ -120,7 +120,8 @@ def test_killed_fsw_over_its_restarts_is_reported_and_the_run_stops(tmp_path, sh
     scen = tmp_path / "long.yaml"
     scen.write_text(short_e2e_yaml.replace("span_days: 4.0", "span_days: 30.0"))
     proc = subprocess.Popen([sys.executable, "-m", "tools.cli", "run", "--scenario", str(scen), "--out", str(tmp_path / "o"),
-                             "--quiet", "--max-restarts", "0"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             "--quiet", "--max-restarts", "0", "--rate", f"{30 * 86400 / 40.0:g}"],  # still flying after 4 s
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         fsw_pid = None
         deadline = time.monotonic() + 60
