@@ -1,5 +1,8 @@
 """`navbank calibrate`: nominal runs through the campaign machinery, weight histories, detector YAML."""
 
+import dataclasses
+import json
+
 import numpy as np
 import pytest
 
@@ -77,6 +80,32 @@ def test_calibrate_rejects_bad_arguments(capsys):
     assert len(capsys.readouterr().err.strip().splitlines()) == 3
 
 
+def test_builtin_plan_and_command_line_overrides(tmp_path):
+    from tools.calibration.plan import load_plan
+    from tools.commands.calibrate import PROCEDURE_DEFAULTS, resolve_plan
+    from tools.cli import build_parser
+
+    plan = load_plan("insight-approach")
+    assert plan.networks == ("chi2", "chi2-two-sided", "magill") and plan.seeds >= 1000 and plan.holdout >= 300
+    assert not set(plan.calibration_seeds()) & set(plan.holdout_seeds())
+    parse = build_parser().parse_args
+    assert resolve_plan(parse(["calibrate", "--plan", "insight-approach"])) == plan
+    got = resolve_plan(parse(["calibrate", "--plan", "insight-approach", "--seeds", "7", "--network", "chi2"]))
+    assert got == dataclasses.replace(plan, seeds=7, networks=("chi2",))
+    assert resolve_plan(parse(["calibrate"])) == PROCEDURE_DEFAULTS
+
+
+def test_bad_plans_are_one_line_and_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("scenario: insight-approach\nnetworks: [chi2]\nseeds: 10\nbase_seed: 1\ntarget_fa: 0.05\n"
+                   "holdout: 5\nholdout_base_seed: 8\n")
+    assert main(["calibrate", "--plan", str(bad)]) == 2
+    assert main(["calibrate", "--plan", "no-such-plan"]) == 2
+    assert main(["calibrate", "--plan", "insight-approach", "--holdout-base-seed", "1500"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and "overlap" in err[0] and "no-such-plan" in err[1] and "overlap" in err[2]
+
+
 def test_several_networks_share_one_set_of_nominal_runs(tmp_path, short_scenario, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "short.yaml").write_text(_scenario(short_scenario))
@@ -106,3 +135,37 @@ def test_calibrate_several_networks_to_a_directory(tmp_path, short_scenario, mon
         assert f"--network {net}" in (tmp_path / "dets" / f"detector-{net}.yaml").read_text()
     assert main(["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--network", "magill",
                  "--out", "x.yaml"]) == 2
+
+
+@pytest.mark.slow
+def test_calibrate_with_held_out_runs_and_report(tmp_path, short_scenario, monkeypatch, capsys):
+    """--holdout flies disjoint seeds into RUNS/holdout and checks each detector on them; the JSON
+    report's counts are recomputed here from the stored held-out weights with the detector."""
+    from fsw.fdir.detector import AnomalyDetector
+    from tools.calibration.record import read_record
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "short.yaml").write_text(_scenario(short_scenario, "{network: chi2, batch_size: 200}"))
+    args = ["calibrate", "--scenario", "short.yaml", "--network", "chi2", "--network", "magill", "--seeds", "6",
+            "--holdout", "4", "--target-fa", "0.3", "--workers", "2", "--out-dir", "dets", "--runs-dir", "runs",
+            "--report", "cal.json", "--quiet"]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("held out") == 2
+    held_rows = read_rows(tmp_path / "runs" / "holdout" / "runs.jsonl").rows
+    assert sorted(r.seed for r in held_rows) == [1007, 1008, 1009, 1010]
+    assert len(read_rows(tmp_path / "runs" / "runs.jsonl").rows) == 6
+    rec = read_record(tmp_path / "cal.json")
+    assert rec.plan.holdout == 4 and [n.network for n in rec.networks] == ["chi2", "magill"]
+    families = load_scenario("short.yaml").fsw.families()
+    for n in rec.networks:
+        det = load_file(DetectorConfig, tmp_path / "dets" / f"detector-{n.network}.yaml")
+        assert n.report.threshold == det.threshold and n.runs == 6 and n.holdout_runs == 4
+        alarms = 0
+        for r in held_rows:
+            w = load_weights(tmp_path / "runs" / "holdout", r.id, n.network).weights
+            d = AnomalyDetector(det, families)
+            alarms += any(d.update(float(i), x, det.filters).flag for i, x in enumerate(w))
+        assert n.holdout.units == 4 and n.holdout.false_alarms == alarms
+        assert f"{n.holdout.false_alarms}/4" in printed
+    assert json.loads((tmp_path / "cal.json").read_text())["plan"]["seeds"] == 6

@@ -17,6 +17,7 @@ from tools.calibration.thresholds import (
     calibrate,
     evaluate_false_alarms,
     false_alarm_prediction_interval,
+    holdout_check,
 )
 from test_fdir_synthetic import BANK3, BANK6, names, simulate_chi2
 
@@ -86,6 +87,27 @@ def test_held_out_false_alarm_rate_matches_target(statistic, bank):
     assert est.units == 400
     lo, hi = false_alarm_prediction_interval(report, est.units, 0.95)
     assert lo <= est.false_alarms <= hi, (est, lo, hi)
+
+
+def test_holdout_check_counts_what_the_critical_values_say():
+    """The hold-out check runs the real detector; a run declares exactly when its critical value
+    under the calibrated band exceeds the threshold, which is computed here the other way."""
+    from fsw.fdir.statistic import NominalBand
+
+    train = simulate_chi2(np.random.default_rng(71), BANK3, 200, 40)
+    held = simulate_chi2(np.random.default_rng(72), BANK3, 120, 40)
+    config, report = calibrate(list(train), 0.1, network="chi2", filters=names(BANK3))
+    check = holdout_check(config, report, list(held), BANK3)
+    band = NominalBand.from_samples(np.concatenate(list(train)), config.spread_floor, config.statistic)
+    crit = np.array([critical_value(band.deviation(w), 3, 5) for w in held])
+    assert check.units == 120 and check.false_alarms == int(np.sum(crit > config.threshold))
+    assert check.predicted == false_alarm_prediction_interval(report, 120, 0.95)
+    assert check.inside == (check.predicted[0] <= check.false_alarms <= check.predicted[1])
+    # a threshold far too low must come out of its interval
+    low = dataclasses.replace(config, threshold=0.2 * config.threshold, clear_threshold=0.1 * config.threshold,
+                              onset_reference=0.05 * config.threshold)
+    bad = holdout_check(low, report, list(held), BANK3)
+    assert bad.false_alarms > check.false_alarms and not bad.inside
 
 
 def test_false_alarm_rate_per_segment():

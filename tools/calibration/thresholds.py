@@ -272,3 +272,27 @@ def evaluate_false_alarms(
                 alarms += 1
                 break
     return FalseAlarmEstimate(alarms, len(units), alarms / len(units), clopper_pearson(alarms, len(units), confidence_level))
+
+
+@dataclass(frozen=True)
+class HoldoutCheck:
+    """A calibrated detector run over held-out nominal runs, against the calibration's prediction."""
+
+    units: int = spec(doc="Held-out nominal units (runs or segments)", ge=0)
+    false_alarms: int = spec(doc="Units on which the detector declared", ge=0)
+    rate: float = spec(doc="false_alarms / units")
+    ci: tuple[float, float] = spec(doc="Clopper-Pearson interval on the per-unit rate")
+    predicted: tuple[int, int] = spec(doc="Central prediction interval for false_alarms (false_alarm_prediction_interval)")
+    level: float = spec(doc="Level of ci and predicted")
+    inside: bool = spec(doc="false_alarms lies inside predicted")
+
+
+def holdout_check(config: DetectorConfig, report: CalibrationReport, histories: Sequence[np.ndarray],
+                  families: Sequence[FilterFamily] | None = None, level: float = 0.95) -> HoldoutCheck:
+    """Step 5 out of sample: the real detector (:func:`evaluate_false_alarms`) on runs the
+    calibration never saw, and whether its false-alarm count lies in the interval the calibration
+    predicts for that many fresh units (:func:`false_alarm_prediction_interval`)."""
+    est = evaluate_false_alarms(config, histories, families, level)
+    lo, hi = false_alarm_prediction_interval(report, est.units, level)
+    return HoldoutCheck(units=est.units, false_alarms=est.false_alarms, rate=est.rate, ci=est.ci,
+                        predicted=(lo, hi), level=level, inside=lo <= est.false_alarms <= hi)

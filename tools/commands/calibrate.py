@@ -1,6 +1,11 @@
 """``navbank calibrate``: calibrate the anomaly detector on nominal runs to a target false-alarm rate.
 
-Procedure (this is how the calibrated values in the built-in scenarios are reproduced)::
+The shipped thresholds come from the built-in calibration plans (``tools/campaigns/calibrations/``),
+which fix every option below; this re-derives them and checks them on held-out runs::
+
+    navbank calibrate --plan insight-approach --out-dir detectors --report calibration-insight-approach.json
+
+A single calibration from options::
 
     navbank calibrate --scenario insight-approach --network chi2 --seeds 200 --target-fa 0.01 \\
         --out detector-chi2.yaml --write-scenario insight-approach-calibrated.yaml
@@ -23,6 +28,11 @@ Procedure (this is how the calibrated values in the built-in scenarios are repro
    the scenario with ``fsw.detector`` set to this network and calibration
    (``--write-scenario``), and the calibration report on stdout: threshold, achieved in-sample
    false-alarm rate with its Clopper–Pearson interval, number of runs (units) and batches.
+5. Held-out check (``--holdout M``): M more nominal runs on seeds disjoint from the calibration's
+   (``RUNS_DIR/holdout``); each calibrated detector runs over their weight histories and its
+   false-alarm count is set against the interval the calibration predicts for M fresh runs
+   (:func:`tools.calibration.thresholds.holdout_check`). ``--report`` writes the calibrations
+   and these checks as JSON.
 
 Re-running the same command reuses the runs already in ``--runs-dir``; more ``--seeds`` adds
 runs. Exit codes: 0 done, 1 no usable nominal run or the calibration failed, 2 a configuration
@@ -34,6 +44,7 @@ from __future__ import annotations
 import dataclasses
 import shlex
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +52,10 @@ import numpy as np
 from fsw.config import DetectorSection, GatingEntry
 from fsw.fdir.config import config_to_yaml
 from fsw.interface.yamlconfig import dump_yaml, load_text
-from tools.calibration.thresholds import CalibrationError, CalibrationReport, calibrate, false_alarm_prediction_interval
+from tools.calibration.plan import CalibrationPlan, builtin_names as plan_names, load_plan
+from tools.calibration.record import CalibrationRecord, NetworkCalibration, write_record
+from tools.calibration.thresholds import (CalibrationError, CalibrationReport, HoldoutCheck, calibrate,
+                                          false_alarm_prediction_interval, holdout_check)
 from tools.campaign.plan import expand
 from tools.campaign.runner import run_campaign
 from tools.campaign.spec import CampaignConfig, FaultCase, LoadedCampaign, MatrixBlock, NetworkVariant, SeedPlan
@@ -57,31 +71,75 @@ DESCRIPTION = __doc__.split("\n", 2)[2] if __doc__ else HELP
 
 
 def add_arguments(p) -> None:
-    p.add_argument("--scenario", default="insight-approach", metavar="S", help="built-in scenario or YAML file")
+    # the procedure's options default to None: a --plan supplies them, and what the command line
+    # gives explicitly wins over the plan (defaults in PROCEDURE_DEFAULTS)
+    p.add_argument("--plan", metavar="NAME|FILE", default=None,
+                   help="a calibration plan: built-in (" + ", ".join(plan_names()) + ") or a YAML file; it fixes the "
+                        "scenario, networks, seeds, held-out runs and detector options below")
+    p.add_argument("--scenario", default=None, metavar="S", help="built-in scenario or YAML file (default insight-approach)")
     p.add_argument("--network", action="append", default=None, metavar="NET",
                    help="gating network the detector watches (default chi2); repeat to calibrate several "
                         "networks on the same nominal runs (then --out-dir)")
-    p.add_argument("--seeds", type=int, default=40, metavar="N", help="number of nominal runs (default 40)")
-    p.add_argument("--base-seed", type=int, default=1001, metavar="B", help="first seed (default 1001)")
-    p.add_argument("--target-fa", type=float, default=0.01, help="false-alarm probability per run or segment")
-    p.add_argument("--warmup", type=int, default=0, metavar="B", help="batches ignored at the start of each run")
+    p.add_argument("--seeds", type=int, default=None, metavar="N", help="number of nominal runs (default 40)")
+    p.add_argument("--base-seed", type=int, default=None, metavar="B", help="first seed (default 1001)")
+    p.add_argument("--holdout", type=int, default=None, metavar="M",
+                   help="then fly M more nominal runs on seeds disjoint from the calibration's and count each "
+                        "calibrated detector's false alarms on them against the calibration's prediction interval "
+                        "(default 0)")
+    p.add_argument("--holdout-base-seed", type=int, default=None, metavar="B",
+                   help="first held-out seed (default: right after the calibration seeds)")
+    p.add_argument("--target-fa", type=float, default=None, help="false-alarm probability per run or segment (default 0.01)")
+    p.add_argument("--warmup", type=int, default=None, metavar="B", help="batches ignored at the start of each run (default 0)")
     p.add_argument("--segment-batches", type=int, default=None, metavar="B",
                    help="false-alarm rate per segment of B batches instead of per run")
-    p.add_argument("--persistence", type=int, nargs=2, default=(3, 5), metavar=("K", "N"),
+    p.add_argument("--persistence", type=int, nargs=2, default=None, metavar=("K", "N"),
                    help="declare when K of the last N batches exceed the threshold (default 3 5)")
-    p.add_argument("--hold", type=int, default=5, help="batches below the clear threshold to clear (default 5)")
-    p.add_argument("--statistic", choices=("mahalanobis", "max-z"), default="mahalanobis")
+    p.add_argument("--hold", type=int, default=None, help="batches below the clear threshold to clear (default 5)")
+    p.add_argument("--statistic", choices=("mahalanobis", "max-z"), default=None, help="default mahalanobis")
     p.add_argument("--workers", type=int, default=None, metavar="N", help="parallel runs (default: cores)")
     p.add_argument("--executor", choices=("local", "dask"), default="local")
     p.add_argument("--scheduler", metavar="ADDR", default=None, help="dask scheduler address")
     p.add_argument("--runs-dir", metavar="DIR", default=None,
-                   help="where the nominal runs go (default ./calibrate-SCENARIO-NETWORK); reused on re-runs")
+                   help="where the nominal runs go (default ./calibrate-SCENARIO-NETWORK; held-out runs in "
+                        "DIR/holdout); reused on re-runs")
     p.add_argument("--out", metavar="FILE.yaml", default=None, help="detector configuration (default: stdout)")
     p.add_argument("--out-dir", metavar="DIR", default=None,
                    help="write DIR/detector-NETWORK.yaml for every --network (needed with several networks)")
     p.add_argument("--write-scenario", metavar="FILE", default=None,
                    help="also write the scenario with fsw.detector set to this calibration")
+    p.add_argument("--report", metavar="FILE.json", default=None,
+                   help="write the calibrations and hold-out checks as JSON (navbank validation-report reads it)")
     p.add_argument("--quiet", action="store_true", help="no progress line")
+
+
+PROCEDURE_DEFAULTS = CalibrationPlan(scenario="insight-approach", networks=("chi2",), seeds=40, base_seed=1001,
+                                     target_fa=0.01)
+# command-line option -> plan field
+PROCEDURE_OPTIONS = {"scenario": "scenario", "network": "networks", "seeds": "seeds", "base_seed": "base_seed",
+                     "holdout": "holdout", "holdout_base_seed": "holdout_base_seed", "target_fa": "target_fa",
+                     "warmup": "warmup", "segment_batches": "segment_batches", "persistence": "persistence",
+                     "hold": "hold", "statistic": "statistic"}
+
+
+def resolve_plan(args) -> CalibrationPlan:
+    """The procedure: the plan (or the defaults), with every option the command line gave on top."""
+    base = load_plan(args.plan) if args.plan else PROCEDURE_DEFAULTS
+    given = {}
+    for opt, field in PROCEDURE_OPTIONS.items():
+        value = getattr(args, opt)
+        if value is not None:
+            given[field] = tuple(dict.fromkeys(value)) if field == "networks" else (
+                tuple(value) if field == "persistence" else value)
+    if given.get("seeds", 1) < 1:
+        raise UsageError("--seeds must be at least 1")
+    if not 0.0 < given.get("target_fa", 0.5) < 1.0:
+        raise UsageError("--target-fa must lie in (0, 1)")
+    if given.get("holdout", 0) < 0:
+        raise UsageError("--holdout must not be negative")
+    try:
+        return dataclasses.replace(base, **given)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def nominal_campaign(scenario_ref: str, network: str | list[str] | tuple[str, ...], seeds: int,
@@ -158,30 +216,36 @@ def format_report(r: CalibrationReport, runs: int, runs_planned: int) -> str:
     return "\n".join(lines)
 
 
-def reproduce_command(args, network: str) -> str:
-    """The command line that recomputes this calibration (for the header of --write-scenario)."""
-    parts = ["navbank", "calibrate", "--scenario", args.scenario, "--network", network,
-             "--seeds", str(args.seeds), "--base-seed", str(args.base_seed), "--target-fa", f"{args.target_fa:g}",
-             "--warmup", str(args.warmup), "--persistence", *map(str, args.persistence), "--hold", str(args.hold),
-             "--statistic", args.statistic]
-    if args.segment_batches is not None:
-        parts += ["--segment-batches", str(args.segment_batches)]
+def reproduce_command(plan: CalibrationPlan, network: str) -> str:
+    """The command line that recomputes this calibration (for the header of the written files)."""
+    parts = ["navbank", "calibrate", "--scenario", plan.scenario, "--network", network,
+             "--seeds", str(plan.seeds), "--base-seed", str(plan.base_seed), "--target-fa", f"{plan.target_fa:g}",
+             "--warmup", str(plan.warmup), "--persistence", *map(str, plan.persistence), "--hold", str(plan.hold),
+             "--statistic", plan.statistic]
+    if plan.segment_batches is not None:
+        parts += ["--segment-batches", str(plan.segment_batches)]
     return " ".join(shlex.quote(p) for p in parts)
 
 
+def format_holdout(h: HoldoutCheck, runs: int) -> str:
+    lvl = int(round(100 * h.level))
+    verdict = "inside" if h.inside else "OUTSIDE"
+    return (f"  held out         {h.false_alarms}/{h.units} = {h.rate:.4g} declared on {runs} fresh nominal runs "
+            f"({lvl} % Clopper-Pearson [{h.ci[0]:.4g}, {h.ci[1]:.4g}]); predicted {h.predicted[0]} to "
+            f"{h.predicted[1]}: {verdict}")
+
+
 def run(args) -> int:
-    networks = list(dict.fromkeys(args.network or ["chi2"]))
-    if args.seeds < 1:
-        raise UsageError("--seeds must be at least 1")
-    if not 0.0 < args.target_fa < 1.0:
-        raise UsageError("--target-fa must lie in (0, 1)")
     if args.workers is not None and args.workers < 1:
         raise UsageError("--workers must be at least 1")
+    plan = resolve_plan(args)
+    networks = list(plan.networks)
     if len(networks) > 1 and (args.out or args.write_scenario):
         raise UsageError("with several --network use --out-dir (--out and --write-scenario take one network)")
-    base = load_scenario(args.scenario)
-    loaded = nominal_campaign(args.scenario, networks, args.seeds, args.base_seed)
-    plan = expand(loaded)
+    base = load_scenario(plan.scenario)
+    nominal = expand(nominal_campaign(plan.scenario, networks, plan.seeds, plan.base_seed))
+    held = plan.holdout_seeds()
+    held_plan = expand(nominal_campaign(plan.scenario, networks, len(held), held.start)) if plan.holdout else None
     label = "+".join(networks)
     runs_dir = Path(args.runs_dir) if args.runs_dir else Path(f"calibrate-{base.name}-{label}")
     # every output proven writable before the nominal runs (exit 2 otherwise); the runs
@@ -192,43 +256,57 @@ def run(args) -> int:
         check_output_file(args.out)
     if args.write_scenario:
         check_output_file(args.write_scenario, "--write-scenario")
+    if args.report:
+        check_output_file(args.report, "--report")
     check_output_dir(runs_dir, "--runs-dir")
-    outcome = run_campaign(plan, runs_dir, executor_factory(args), quiet=args.quiet)
-    if outcome.interrupted:
-        print("navbank calibrate: interrupted; nothing written (run the same command again to resume)", file=sys.stderr)
-        return 130
+    for todo, where in ((nominal, runs_dir), (held_plan, runs_dir / "holdout")):
+        if todo is None:
+            continue
+        outcome = run_campaign(todo, where, executor_factory(args), quiet=args.quiet)
+        if outcome.interrupted:
+            print("navbank calibrate: interrupted; nothing written (run the same command again to resume)",
+                  file=sys.stderr)
+            return 130
     if args.out_dir:
         Path(args.out_dir).mkdir(parents=True, exist_ok=True)
     status = 0
+    records = []
     for network in networks:
-        status = max(status, _calibrate_one(args, base, plan, runs_dir, network))
+        code, record = _calibrate_one(args, plan, base, nominal, held_plan, runs_dir, network)
+        status = max(status, code)
+        if record is not None:
+            records.append(record)
+    if args.report and records:
+        write_record(CalibrationRecord(plan=plan, generated=time.strftime("%Y-%m-%d", time.gmtime()),
+                                       networks=tuple(records)), args.report)
     return status
 
 
-def _calibrate_one(args, base: ScenarioConfig, plan, runs_dir: Path, network: str) -> int:
+def _calibrate_one(args, plan: CalibrationPlan, base: ScenarioConfig, nominal, held_plan, runs_dir: Path,
+                   network: str) -> tuple[int, NetworkCalibration | None]:
     try:
-        histories, filters, used = collect_histories(runs_dir, [t.id for t in plan.tasks], network)
+        histories, filters, used = collect_histories(runs_dir, [t.id for t in nominal.tasks], network)
     except CalibrationError as exc:
         print(f"navbank calibrate: {exc}", file=sys.stderr)
-        return 1
-    failed = len(plan.tasks) - len(used)
+        return 1, None
+    failed = len(nominal.tasks) - len(used)
     if failed:
         print(f"navbank calibrate: {failed} nominal run(s) failed, missing or without {network} weights "
               f"(see {runs_dir}/runs.jsonl); "
               f"calibrating on {len(used)}", file=sys.stderr)
     if not histories:
         print(f"navbank calibrate: no successful nominal run to calibrate {network} on", file=sys.stderr)
-        return 1
+        return 1, None
     try:
         detector, report = calibrate(
-            histories, args.target_fa, network=network, filters=filters, statistic=args.statistic,
-            persistence=tuple(args.persistence), hold=args.hold, warmup=args.warmup,
-            segment_batches=args.segment_batches,
+            histories, plan.target_fa, network=network, filters=filters, statistic=plan.statistic,
+            persistence=tuple(plan.persistence), hold=plan.hold, warmup=plan.warmup,
+            segment_batches=plan.segment_batches,
         )
     except CalibrationError as exc:
         print(f"navbank calibrate: calibration of {network} failed: {exc}", file=sys.stderr)
-        return 1
-    command = reproduce_command(args, network)
+        return 1, None
+    command = reproduce_command(plan, network)
     text = config_to_yaml(detector)
     out = args.out or (str(Path(args.out_dir) / f"detector-{network}.yaml") if args.out_dir else None)
     if out:
@@ -237,11 +315,26 @@ def _calibrate_one(args, base: ScenarioConfig, plan, runs_dir: Path, network: st
         print(text, end="")
     if args.write_scenario:
         scen = calibrated_scenario(base, network, detector)
+        seeds = plan.calibration_seeds()
         header = (f"# {scen.name} with the {network} detector calibrated on {len(used)} nominal runs "
-                  f"(seeds {args.base_seed}..{args.base_seed + args.seeds - 1}, target FA {args.target_fa:g})\n")
+                  f"(seeds {seeds.start}..{seeds.stop - 1}, target FA {plan.target_fa:g})\n")
         header += f"# reproduce: {command}\n"
         body = dump_yaml(scen, drop_defaults=True)
         load_text(ScenarioConfig, body, args.write_scenario)  # what we write must load back
         Path(args.write_scenario).write_text(header + body, encoding="utf-8")
-    print(format_report(report, len(used), len(plan.tasks)), file=sys.stdout if out else sys.stderr)
-    return 0
+    lines = [format_report(report, len(used), len(nominal.tasks))]
+    check, held_used = None, 0
+    if held_plan is not None:
+        try:
+            held, _, held_ids = collect_histories(runs_dir / "holdout", [t.id for t in held_plan.tasks], network)
+            if held:
+                check = holdout_check(detector, report, held, base.fsw.families())
+                held_used = len(held_ids)
+                lines.append(format_holdout(check, held_used))
+            else:
+                lines.append("  held out         no successful held-out run")
+        except CalibrationError as exc:
+            lines.append(f"  held out         not evaluated: {exc}")
+    print("\n".join(lines), file=sys.stdout if out else sys.stderr)
+    return 0, NetworkCalibration(network=network, runs=len(used), report=report, holdout=check,
+                                 holdout_runs=held_used, command=command)
