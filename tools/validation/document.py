@@ -362,6 +362,19 @@ def detector_results(row: ResultRow) -> dict[str, AnomalyBlock]:
     return out
 
 
+def calibrated_on(campaigns_dir: Path) -> str:
+    """'N nominal runs (seeds a–b) for x % per run' from the calibration record, when there is one."""
+    from tools.validation import calibration
+
+    path = campaigns_dir / calibration.file_name("insight-approach")
+    if not path.is_file():
+        return "see `tools/campaigns/detectors/`"
+    plan = calibration.read_record(path).plan
+    seeds = plan.calibration_seeds()
+    return (f"{plan.seeds} nominal runs, seeds {seeds.start}–{seeds.stop - 1}, for a {100 * plan.target_fa:g} % "
+            "false-alarm probability per 45-day run; section above")
+
+
 def _k_of_n(b: Binomial) -> str:
     """'k/n [low–high %]' of a proportion over at least one run (it then has its interval)."""
     assert b.ci is not None
@@ -383,14 +396,13 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
         "case and seed carrying the three networks chi2, chi2-two-sided and Magill on the same bank. The onboard "
         "detector watches chi2; the same detector code (`fsw.fdir.AnomalyDetector`) replays the chi2-two-sided "
         "and Magill weight telemetry of the same run with their own calibrations. Each network's detector is "
-        "calibrated on 40 nominal runs (seeds 1001–1040, disjoint from these) for a 5 % false-alarm probability "
-        "per 45-day run, so the `none` row is an out-of-sample false-alarm check. P_D counts runs whose first "
+        f"the shipped calibration ({calibrated_on(camp.parent)}, disjoint from these), so the `none` row is one "
+        "more out-of-sample false-alarm check. P_D counts runs whose first "
         "declaration came at or after the true onset; latency = declaration − true onset; the class is the "
         "diagnosis at the first declaration. Intervals are 95 % Clopper–Pearson.",
         "",
         "```bash",
-        "navbank calibrate --scenario insight-approach --network chi2 --network chi2-two-sided --network magill \\",
-        "    --seeds 40 --target-fa 0.05 --out-dir tools/campaigns/detectors   # the shipped calibrations",
+        "navbank calibrate --plan insight-approach --out-dir tools/campaigns/detectors   # the shipped calibrations",
         "navbank campaign detection-matrix --out campaigns/detection-matrix",
         "navbank report campaigns/detection-matrix",
         "```",
@@ -598,6 +610,11 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
 
         sections.append(em_section(None, fig_dir, out_dir))
         sections[-1].discussion = EM_DISCUSSION
+    from tools.validation import calibration
+
+    for plan in calibration.PLANS:
+        if (campaigns_dir / calibration.file_name(plan)).is_file():
+            sections.append(calibration.section(plan, campaigns_dir / calibration.file_name(plan), fig_dir, out_dir))
     for name, patterns, make, discussion in campaign_sections[2:]:
         if name in reports:
             sections.append(make(campaigns_dir / name, copy_figures(reports[name], patterns, fig_dir, name), out_dir))
@@ -619,7 +636,8 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
         sections.append(false_alarm_epochs.section(campaigns_dir / false_alarm_epochs.FILE, fig_dir, out_dir))
     sections.append(clock_frequency_section())
     # the documented procedure, whatever directories this copy was generated from
-    commands = [f"navbank campaign {n} --out campaigns/{n}" for n in CAMPAIGNS]
+    commands = [calibration.command(p) for p in calibration.PLANS]
+    commands += [f"navbank campaign {n} --out campaigns/{n}" for n in CAMPAIGNS]
     commands.append(CONSISTENCY_COMMAND)
     commands.append(false_alarm_epochs.COMMAND)
     commands.append("navbank validation-report --campaigns campaigns --out docs")
