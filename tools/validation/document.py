@@ -475,11 +475,12 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
 def overinflated_section(camp: Path, doc_dir: Path) -> Section:
     s = Section("Beyond the papers: the over-inflated filter and the two-sided network")
     rows = ok_rows(camp)
+    n_seeds = len({r.seed for r in rows})
     s.lines += [
         "Lubey & Ely 2022 §4.4 names a weakness of its chi-square network: a filter whose uncertainty is over-inflated "
         "produces small chi-square residuals and is rewarded. Scenario `insight-overinflated` adds to the "
         "nominal radio / optical / fused bank a copy of the fused filter whose measurement sigmas are three "
-        "times the reported ones (`sigma_scale: 3` on every kind); no fault, 5 seeds. navbank's `chi2-two-sided` network replaces the statistic G by ν + max(G − ν, d), "
+        "times the reported ones (`sigma_scale: 3` on every kind); no fault, " + f"{n_seeds} seeds. navbank's `chi2-two-sided` network replaces the statistic G by ν + max(G − ν, d), "
         "d = G − ν − ν ln(G/ν), the likelihood-ratio statistic for the scale of the innovation covariance, so a "
         "too-small chi-square is penalised like a too-large one (derivation in fsw/gating/chi2_two_sided.py).",
         "",
