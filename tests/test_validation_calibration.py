@@ -35,7 +35,7 @@ def test_section_reports_the_record(tmp_path):
     s = calibration.section("insight-approach", path, tmp_path / "figures", tmp_path)
     text = "\n".join(s.lines)
     n = rec.networks[0]
-    assert "seeds 1001–1099" in text and "seeds 3001–3060" in text
+    assert "seeds 1001–1099" in text and "seeds 3001–3060" in text and "tools/campaigns/detectors" in text
     assert f"{n.holdout.false_alarms}/60" in text and f"{n.report.false_alarms}/{n.report.units}" in text
     assert f"{n.holdout.predicted[0]}–{n.holdout.predicted[1]}" in text
     assert [c.holds for c in s.claims] == [n.holdout.inside]

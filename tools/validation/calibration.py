@@ -15,7 +15,12 @@ from tools.calibration.record import CalibrationRecord, read_record
 from tools.validation.claims import Claim
 from tools.validation.section import Section, claims_lines, table
 
-PLANS = ("insight-approach",)
+PLANS = ("insight-approach", "insight-thrusters", "insight-process-noise")
+#: where each plan's detectors are shipped
+SHIPPED = {"insight-approach": "the chi2 detector in `tools/scenarios/insight-approach.yaml` (onboard) and all three "
+                               "in `tools/campaigns/detectors/` (the detection-matrix campaign's monitors)",
+           "insight-thrusters": "`fsw.detector` of `tools/scenarios/insight-thrusters.yaml`",
+           "insight-process-noise": "`fsw.detector` of `tools/scenarios/insight-process-noise.yaml`"}
 
 
 def file_name(plan: str) -> str:
@@ -23,8 +28,7 @@ def file_name(plan: str) -> str:
 
 
 def command(plan: str) -> str:
-    return (f"navbank calibrate --plan {plan} --out-dir tools/campaigns/detectors "
-            f"--report campaigns/{file_name(plan)}")
+    return f"navbank calibrate --plan {plan} --out-dir calibrations/{plan} --report campaigns/{file_name(plan)}"
 
 
 def plot(rec: CalibrationRecord, path: Path) -> Path:
@@ -65,7 +69,7 @@ def section(plan: str, path: Path, fig_dir: Path, doc_dir: Path) -> Section:
     s = Section(f"Detector calibration: the shipped thresholds of `{p.scenario}` and a held-out false-alarm check")
     cal, held = p.calibration_seeds(), p.holdout_seeds()
     s.lines += [
-        f"The detectors on {', '.join(p.networks)} are calibrated on the same {p.seeds} nominal runs (seeds "
+        f"The detectors on {', '.join(p.networks)} are calibrated on {p.seeds} nominal runs (seeds "
         f"{cal.start}–{cal.stop - 1}, no fault, detector off) for a {100 * p.target_fa:g} % false-alarm probability "
         f"per run, with a {p.persistence[0]}-of-{p.persistence[1]} persistence rule on the {p.statistic} deviation "
         f"of the weights from their nominal band (`tools/calibration/thresholds.py`: the threshold is the j-th "
@@ -74,7 +78,8 @@ def section(plan: str, path: Path, fig_dir: Path, doc_dir: Path) -> Section:
         "(`fsw.fdir.AnomalyDetector`). Their false-alarm count is not binomial around the target: the threshold "
         "is itself an order statistic, so the count of fresh runs above it is beta-binomial(M, j, R + 1 − j), and "
         "that 95 % prediction interval is what the held-out count must fall in. The plan is a built-in file "
-        f"(`tools/campaigns/calibrations/{plan}.yaml`); calibrated on {rec.generated}.",
+        f"(`tools/campaigns/calibrations/{plan}.yaml`); calibrated on {rec.generated}. The detectors it writes "
+        f"(`detector-NETWORK.yaml`) are shipped as {SHIPPED.get(plan, 'the scenario detector')}.",
         "",
         "```bash",
         command(plan),

@@ -402,7 +402,7 @@ def detection_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section
         "diagnosis at the first declaration. Intervals are 95 % Clopper–Pearson.",
         "",
         "```bash",
-        "navbank calibrate --plan insight-approach --out-dir tools/campaigns/detectors   # the shipped calibrations",
+        "navbank calibrate --plan insight-approach --out-dir calibrations/insight-approach   # the shipped calibrations",
         "navbank campaign detection-matrix --out campaigns/detection-matrix",
         "navbank report campaigns/detection-matrix",
         "```",
