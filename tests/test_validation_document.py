@@ -75,3 +75,31 @@ def test_detection_section_counts_detections_false_alarms_and_classes(tmp_path):
     # confusion rows: injected optical-measurement on chi2 -> 2 optical, 1 unknown, 1 none
     chi2_block = text.split("Characterization, chi2 ")[1].split("Characterization")[0]
     assert "| optical-measurement | 1 | 2 | 0 | 0 | 1 |" in chi2_block
+
+
+def test_table3_batch_statistics_are_medians_of_run_means(tmp_path):
+    """The G table: per case and filter, the median over runs of each run's mean per-batch G, the
+    closing partial batch left out (recomputed here from the arrays written)."""
+    import numpy as np
+
+    from ground.report.run_weights import RunWeights
+    from tools.validation.document import batch_statistics
+
+    rows = [_row(i, "no bias", i + 1, dict(zip(FILTERS, (1 / 3,) * 3)), _anomaly(False, "none")) for i in range(3)]
+    camp = _write(tmp_path, rows)
+    rng = np.random.default_rng(3)
+    means = []
+    for r in rows:
+        stat = rng.uniform(900, 1300, size=(6, 3))
+        stat[-1] = 1e6  # the closing tail must not count
+        means.append(stat[:-1].mean(axis=0))
+        w = RunWeights(filters=FILTERS, t_s=np.arange(6.0), batch=np.arange(6), weights=np.full((6, 3), 1 / 3),
+                       statistic=stat)
+        (camp / "weights" / "chi2").mkdir(parents=True, exist_ok=True)
+        w.save(camp / "weights" / "chi2" / f"{r['id']}.npz")
+    from tools.validation.tables import ok_rows
+
+    lines = batch_statistics(camp, ok_rows(camp), ("no bias", "large bias - optical"))
+    med = np.median(means, axis=0)
+    assert lines[2] == "| no bias | 3 | " + " | ".join(f"{g:,.0f}" for g in med) + " |"
+    assert len(lines) == 3  # no row for a case without runs
