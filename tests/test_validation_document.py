@@ -50,6 +50,8 @@ def test_table3_section_puts_paper_and_seed_means_side_by_side(tmp_path):
     verdicts = {c.key: c.holds for c in sec.claims}
     assert verdicts["no-bias"] and verdicts["small-radio"] and not verdicts["medium-optical"]
     assert verdicts["magill-fused"]
+    # the reading quotes the same runs' weights, not numbers written by hand
+    assert "medium 0.330 / 0.330 / 0.340 against 0.9008 / 0.0638 / 0.0354" in " ".join(sec.discussion.split())
     doc = render([sec], generated="today", commands=["navbank campaign lubey-ely-table3"])
     assert "| Lubey & Ely 2022 Table 3 | medium optical bias: radio > 0.8 and fused lowest | **no** |" in doc
 
