@@ -105,3 +105,25 @@ def test_table3_batch_statistics_are_medians_of_run_means(tmp_path):
     med = np.median(means, axis=0)
     assert lines[2] == "| no bias | 3 | " + " | ".join(f"{g:,.0f}" for g in med) + " |"
     assert len(lines) == 3  # no row for a case without runs
+
+
+def test_shipped_detector_replay_needs_stored_weights_and_declares_on_a_departure(tmp_path):
+    import numpy as np
+
+    from ground.report.run_weights import RunWeights
+    from tools.scenario import load_scenario
+    from tools.validation.document import shipped_detector_verdicts
+    from tools.validation.tables import ok_rows
+
+    rows = [_row(i, "no bias", i + 1, dict(zip(FILTERS, (1 / 3,) * 3)), _anomaly(False, "none")) for i in range(2)]
+    camp = _write(tmp_path, rows)
+    assert shipped_detector_verdicts(camp, "insight-approach", ok_rows(camp)) is None  # no weights kept
+    cal = load_scenario("insight-approach").fsw.detector.calibration
+    nominal = np.tile(cal.nominal_mean, (30, 1))
+    biased = nominal.copy()
+    biased[10:] = (0.9, 0.05, 0.05)  # the radio-only filter takes the weight: an optical fault
+    (camp / "weights" / "chi2").mkdir(parents=True)
+    for r, w in zip(rows, (nominal, biased)):
+        RunWeights(filters=FILTERS, t_s=np.arange(30.0) * 1e5, batch=np.arange(30), weights=w).save(
+            camp / "weights" / "chi2" / f"{r['id']}.npz")
+    assert shipped_detector_verdicts(camp, "insight-approach", ok_rows(camp)) == [None, "optical-measurement"]

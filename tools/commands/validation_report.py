@@ -1,18 +1,25 @@
 """``navbank validation-report``: write docs/validation.md — the papers' findings reproduced by navbank.
 
-Run the four built-in validation campaigns first (each resumes if interrupted), then this command:
+Calibrate the shipped detectors and run the validation campaigns first (each resumes if
+interrupted), then this command:
 
+    navbank calibrate --plan insight-approach --out-dir calibrations/insight-approach \\
+        --report campaigns/calibration-insight-approach.json   # and the other plans alike
     navbank campaign lubey-ely-table3 --out campaigns/lubey-ely-table3
     navbank campaign lubey-ely-table4 --out campaigns/lubey-ely-table4
     navbank campaign detection-matrix --out campaigns/detection-matrix
     navbank campaign overinflated --out campaigns/overinflated
+    navbank consistency --seeds 20 --out campaigns/filter-consistency.json
+    navbank false-alarms --seeds 100 --out campaigns/false-alarm-epochs.json
     navbank validation-report --campaigns campaigns --out docs
 
-It reads the campaigns' runs, draws their figures (``navbank report``), runs the Chaer et al. 1997
-tracking experiments (~15 s) and its GA tuning (~40 s), the Chaer et al. 1998 Pathfinder cruise (in-process
-runs, ~2 min, with EM on one recorded) and the optical-navigation camera experiment (27 optical-only runs,
-~3 min), and writes OUT/validation.md with OUT/figures/. A campaign directory that is missing leaves its
-section out (the command says which). Exit codes: 0 written, 2 bad arguments or no matplotlib.
+It reads the campaigns' runs and the calibration records, draws their figures (``navbank report``),
+and flies its own experiments on ``--workers`` processes (:mod:`tools.validation.jobs`): the Chaer et
+al. 1997 tracking experiments, GA tuning and RQP adaptation, the Hanlon & Maybeck 2000 dither cases,
+Garhwal et al.'s injection case, the Chaer et al. 1998 Pathfinder cruise (with EM on one recorded)
+and the optical-navigation camera experiment. It writes OUT/validation.md with OUT/figures/. A
+campaign directory or record that is missing leaves its section out (the command says which for
+the campaigns). Exit codes: 0 written, 2 bad arguments or no matplotlib.
 """
 
 from __future__ import annotations
@@ -34,6 +41,8 @@ def add_arguments(p) -> None:
     p.add_argument("--out", metavar="DIR", default="docs", help="where validation.md and figures/ go (default ./docs)")
     p.add_argument("--no-cruise", action="store_true", help="leave out the Chaer et al. 1998 cruise run")
     p.add_argument("--no-optical", action="store_true", help="leave out the optical-navigation camera runs")
+    p.add_argument("--workers", type=int, default=2, metavar="N",
+                   help="processes for the experiments the report flies itself (default 2)")
 
 
 def run(args) -> int:
@@ -45,13 +54,17 @@ def run(args) -> int:
     except PlottingUnavailable as exc:
         print(f"navbank validation-report: {exc}", file=sys.stderr)
         return 2
+    if args.workers < 1:
+        print("navbank validation-report: --workers must be at least 1", file=sys.stderr)
+        return 2
     check_output_dir(args.out)  # before the cruise run and the figures: exit 2 for a directory we could not fill
     missing = [n for n in CAMPAIGNS if not (camp / n / "runs.jsonl").is_file()]
     for n in missing:
         print(f"navbank validation-report: no campaign {camp / n} (run: navbank campaign {n} --out {camp / n}); "
               "its section is left out", file=sys.stderr)
     try:
-        path = build(camp, Path(args.out), cruise=not args.no_cruise, optical=not args.no_optical)
+        path = build(camp, Path(args.out), cruise=not args.no_cruise, optical=not args.no_optical,
+                     workers=args.workers)
     except PlottingUnavailable as exc:
         print(f"navbank validation-report: {exc}", file=sys.stderr)
         return 2

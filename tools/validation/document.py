@@ -202,6 +202,32 @@ def rewrap(text: str, width: int = 110) -> str:
 
 # -- Lubey & Ely 2022 Table 4 -------------------------------------------------------------------------------
 
+def shipped_detector_verdicts(camp: Path, scenario: str, runs: list[ResultRow]) -> list[str | None] | None:
+    """Per run, the class the scenario's shipped detector first diagnoses when it declares (None:
+    no declaration), replayed on the run's stored chi2 weights — so a campaign flown before a
+    recalibration still reports what the shipped thresholds do. None when weights were not kept."""
+    from fsw.fdir.detector import AnomalyDetector
+    from tools.campaign.store import has_weights, load_weights
+    from tools.scenario import load_scenario
+
+    cfg = load_scenario(scenario)
+    cal = cfg.fsw.detector.calibration
+    if cal is None or not runs or not all(has_weights(camp, r.id, cal.network) for r in runs):
+        return None
+    out: list[str | None] = []
+    for r in runs:
+        w = load_weights(camp, r.id, cal.network)
+        det = AnomalyDetector(cal, cfg.fsw.families())
+        first = None
+        for t, x in zip(w.t_s, w.weights):
+            state = det.update(float(t), x, w.filters)
+            if state.flag:
+                first = state.anomaly_class
+                break
+        out.append(first)
+    return out
+
+
 def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
     s = Section("Lubey & Ely 2022 Table 4: dynamics mis-modelling, six-filter banks")
     rows = ok_rows(camp)
@@ -241,11 +267,15 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
             top = max(mg.mean, key=mg.mean.__getitem__)
             s.claims.append(Claim(f"table4-magill-{label}", f"{label}: Magill favours the high-uncertainty fused "
                                   "filter (fused-Q)", top == "fused-Q", f"highest: {top} ({mg.mean[top]:.3f})"))
-        runs = [r for r in rows if r.cell.scenario == scen and r.cell.fault == case]
-        declared = [a for a in (summary_of(r).anomaly for r in runs) if a.declared]
-        classes = sorted({a.first_diagnosis for a in declared})
-        detector_lines.append(f"* detector (chi2, calibrated for this bank), {label}: declared in "
-                              f"{len(declared)}/{len(runs)} runs, diagnosed {', '.join(classes) or 'nothing'}")
+        for fault, what in ((case, label), ("no mis-modelling", f"{label}, no mis-modelling")):
+            runs = [r for r in rows if r.cell.scenario == scen and r.cell.fault == fault]
+            got = shipped_detector_verdicts(camp, scen, runs)
+            if got is None:
+                continue
+            declared = [c for c in got if c is not None]
+            detector_lines.append(f"* the shipped detector of `{scen}` (chi2, calibrated for this bank) on the {what} "
+                                  f"runs: declared in {len(declared)}/{len(got)}, first diagnosed "
+                                  f"{', '.join(f'{c} ({declared.count(c)})' for c in sorted(set(declared))) or 'nothing'}")
     s.lines += [""] + table(["scenario", "filter", "paper", "navbank (fault)", "navbank (no fault)"], body)
     s.lines += ["", "Findings (Lubey & Ely 2022 §4.4):", "", *claims_lines(s.claims), *detector_lines, ""]
     s.lines += figure_links(figures, doc_dir)
@@ -623,10 +653,15 @@ def render(sections: list[Section], *, generated: str, commands: list[str]) -> s
 
 def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
           chaer1997: Callable[[], Any] | None = None, chaer1997_ga: Callable[[], Any] | None = None,
-          optical: bool = True, rqp: Callable[[], Any] | None = None) -> Path:
-    """Write ``out_dir/validation.md`` and ``out_dir/figures/``."""
+          optical: bool = True, rqp: Callable[[], Any] | None = None, workers: int = 1) -> Path:
+    """Write ``out_dir/validation.md`` and ``out_dir/figures/``; the experiments that fly their own
+    runs go to ``workers`` processes (:mod:`tools.validation.jobs`). ``chaer1997``, ``chaer1997_ga``
+    and ``rqp`` replace those experiments' runs (here, in this process)."""
+    from tools.validation.jobs import JOBS, run_jobs
+
+    injected = {k: f for k, f in (("chaer1997", chaer1997), ("chaer1997-ga", chaer1997_ga), ("chaer1997-rqp", rqp))
+                if f is not None}
     from ground.report.build import report_campaign
-    from tools.validation.chaer1997 import plot_experiment_3, run_chaer1997
 
     fig_dir = out_dir / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
@@ -650,38 +685,12 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
         if name in reports:
             sections.append(make(campaigns_dir / name, copy_figures(reports[name], patterns, fig_dir, name), out_dir))
             sections[-1].discussion = discussion or sections[-1].discussion
-    results = (chaer1997 or run_chaer1997)()
-    sections.append(chaer1997_section(results, plot_experiment_3(results, fig_dir / "chaer1997-experiment3.png"), out_dir))
-    sections[-1].discussion = CHAER1997_DISCUSSION
-    from tools.validation.chaer1997_ga import GA_DISCUSSION, ga_section, run_campaign
-
-    sections.append(ga_section((chaer1997_ga or run_campaign)(), fig_dir, out_dir))
-    sections[-1].discussion = GA_DISCUSSION
-    from tools.validation import chaer1997_rqp
-
-    exp4 = (rqp or chaer1997_rqp.run_experiment_4)()
-    sections.append(chaer1997_rqp.experiment4_section(
-        exp4, chaer1997_rqp.plot_experiment_4(exp4, fig_dir / "chaer1997-experiment4-rqp.png"), out_dir))
-    sections[-1].discussion = chaer1997_rqp.EXPERIMENT4_DISCUSSION
-    from tools.validation import hanlon2000
-
-    for case in hanlon2000.CASES:
-        hm = hanlon2000.run_hanlon2000(case)
-        sections.append(hanlon2000.hanlon2000_section(
-            hm, hanlon2000.plot_hanlon2000(hm, fig_dir / f"hanlon2000-{case}-identification.png"), out_dir))
-    sections[-1].discussion = hanlon2000.HANLON2000_DISCUSSION
-    from tools.validation import garhwal
-
-    sections.append(garhwal.build_section(fig_dir, out_dir))
-    if cruise:
-        from tools.validation.chaer1998 import chaer1998_section
-
-        sections.append(chaer1998_section(fig_dir, out_dir))
-        sections[-1].discussion = CHAER1998_DISCUSSION
-        from tools.validation.chaer1998_em import EM_DISCUSSION, em_section
-
-        sections.append(em_section(None, fig_dir, out_dir))
-        sections[-1].discussion = EM_DISCUSSION
+    names = [n for n in JOBS if (cruise or not n.startswith("chaer1998")) and (optical or n != "optical")]
+    done = run_jobs([n for n in names if n not in injected], fig_dir, out_dir, workers)
+    for name, run in injected.items():
+        done[name] = JOBS[name](fig_dir, out_dir, run)
+    for name in ("chaer1997", "chaer1997-ga", "chaer1997-rqp", "hanlon2000", "garhwal", "chaer1998", "chaer1998-em"):
+        sections += done.get(name, [])
     from tools.validation import calibration
 
     for plan in calibration.PLANS:
@@ -693,11 +702,7 @@ def build(campaigns_dir: Path, out_dir: Path, *, cruise: bool = True,
             sections[-1].discussion = discussion
     if "overinflated" in reports:
         sections.append(overinflated_section(campaigns_dir / "overinflated", out_dir))
-    if optical:
-        from tools.validation.optical_nav import optical_nav_section
-
-        sections.append(optical_nav_section())
-        sections[-1].discussion = OPTICAL_DISCUSSION
+    sections += done.get("optical", [])
     sections.append(model_differences_section())
     if (campaigns_dir / CONSISTENCY_FILE).is_file():
         sections.append(consistency_section(campaigns_dir / CONSISTENCY_FILE))
