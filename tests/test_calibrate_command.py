@@ -169,3 +169,25 @@ def test_calibrate_with_held_out_runs_and_report(tmp_path, short_scenario, monke
         assert n.holdout.units == 4 and n.holdout.false_alarms == alarms
         assert f"{n.holdout.false_alarms}/4" in printed
     assert json.loads((tmp_path / "cal.json").read_text())["plan"]["seeds"] == 6
+
+
+@pytest.mark.parametrize("name", ["insight-approach", "insight-thrusters", "insight-process-noise"])
+def test_shipped_detectors_come_from_their_plans(name):
+    """Every shipped threshold names the plan that re-derives it, and agrees with it on the
+    procedure; insight-approach's onboard detector is the shipped detector-chi2.yaml."""
+    from importlib import resources
+
+    from tools.calibration.plan import load_plan
+
+    plan = load_plan(name)
+    scen_text = resources.files("tools").joinpath("scenarios", f"{name}.yaml").read_text(encoding="utf-8")
+    assert f"navbank calibrate --plan {name}" in scen_text and f"on {plan.seeds} nominal runs" in scen_text
+    onboard = load_scenario(name).fsw.detector.calibration
+    assert onboard.network in plan.networks and onboard.target_fa == plan.target_fa
+    assert (onboard.persistence_k, onboard.persistence_n) == tuple(plan.persistence) and onboard.hold == plan.hold
+    if name == "insight-approach":
+        det_dir = resources.files("tools").joinpath("campaigns", "detectors")
+        for net in plan.networks:
+            text = det_dir.joinpath(f"detector-{net}.yaml").read_text(encoding="utf-8")
+            assert f"--seeds {plan.seeds} --base-seed {plan.base_seed} --target-fa {plan.target_fa:g}" in text
+        assert onboard == load_file(DetectorConfig, str(det_dir.joinpath("detector-chi2.yaml")))
