@@ -280,7 +280,7 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
     s.lines += [""] + table(["scenario", "filter", "paper", "navbank (fault)", "navbank (no fault)"], body)
     stats: dict[str, dict[str, dict[str, float]]] = {}
     fault_means: dict[str, Mapping[str, float]] = {}
-    spread = 0.0
+    spreads: dict[str, float] = {}
     for label, (scen, case) in cases.items():
         scen_rows = [r for r in rows if r.cell.scenario == scen]
         lines = batch_statistics(camp, scen_rows, ("no mis-modelling", case), into=stats.setdefault(scen, {}))
@@ -289,18 +289,18 @@ def table4_section(camp: Path, figures: list[Path], doc_dir: Path) -> Section:
         row = weight_table(rows, "chi2", scenario=scen).get(case)
         if row is not None:
             fault_means[label] = row.mean
-            spread = max([spread, *(row.std or {}).values()])
+            spreads[label] = max((row.std or {}).values(), default=0.0)
     if len(fault_means) == len(cases):
-        s.discussion = table4_discussion(fault_means, spread, stats)
+        s.discussion = table4_discussion(fault_means, spreads, stats)
     s.lines += ["", "Findings (Lubey & Ely 2022 §4.4):", "", *claims_lines(s.claims), *detector_lines, ""]
     s.lines += figure_links(figures, doc_dir)
     return s
 
 
-def table4_discussion(weights: dict[str, Mapping[str, float]], spread: float,
+def table4_discussion(weights: dict[str, Mapping[str, float]], spreads: dict[str, float],
                       stats: dict[str, dict[str, dict[str, float]]]) -> str:
     """Table 4's reading from the same runs: ``weights`` case label -> filter -> mean chi2 weight,
-    ``spread`` the largest standard deviation over seeds, ``stats`` scenario -> case -> filter -> G."""
+    ``spreads`` case label -> the largest standard deviation over seeds, ``stats`` scenario -> case -> filter -> G."""
     def w(case: str, f: str) -> str:
         return f"{weights[case][f]:.3f}" if case in weights and f in weights[case] else "n/a"
 
@@ -319,15 +319,16 @@ def table4_discussion(weights: dict[str, Mapping[str, float]], spread: float,
                     "The low-Q radio and fused filters do not both come last, ")
         best_optical = max(pn.get("optical", 0.0), pn.get("optical-Q", 0.0))
         margin = pn[ranked[0]] - best_optical
+        spread = spreads.get("process noise", 0.0)
         pn_order += (f"the highest weight goes to {ranked[0]} ({pn[ranked[0]]:.4f}), ahead of the best optical filter by "
-                     f"{margin:.4f}" + (f" — less than the largest spread over seeds ({spread:.4f}), so which of the "
+                     f"{margin:.4f}" + (f" — less than the spread over seeds ({spread:.4f}), so which of the "
                                         "filters that model the force well enough comes first is a coin toss here, "
                                         "where the paper's optical filters led clearly" if margin < spread else "")
                      if ranked[0] not in ("optical", "optical-Q") else f"{ranked[0]} is highest, as in the paper")
     else:
         pn_order = "No process-noise runs"
     text = f"""\
-**Attitude thrusters.** The ordering reproduces (largest spread over seeds {spread:.3f}) and so, roughly, do the
+**Attitude thrusters.** The ordering reproduces (largest spread over seeds {spreads.get("attitude thruster", 0.0):.3f}) and so, roughly, do the
 sizes: the low-Q radio and fused filters fall to {w("attitude thruster", "radio")} / {w("attitude thruster", "fused")}
 (paper {p_att[names.index("radio")]:.3f} / {p_att[names.index("fused")]:.3f}) and the optical filter rises to
 {w("attitude thruster", "optical")} (paper {p_att[names.index("optical")]:.3f}). navbank's -Q filters score as well as
