@@ -138,6 +138,17 @@ def plot(res: dict[str, Any], path: Path) -> Path:
     return path
 
 
+def shared_epochs(declarations: dict[str, float]) -> str:
+    """', with k of them at day d' for every declaration epoch more than one run shares (the batch
+    epochs are common to all seeds, so a shared epoch is one batch that tripped several runs)."""
+    days = list(declarations.values())
+    shared = sorted({d for d in days if days.count(d) > 1})
+    if not shared:
+        return ""
+    return ", " + " and ".join(f"{days.count(d)} of them in the batch that ends on day {d:.2f}" for d in shared) + \
+        " (not explained yet: the runs share the batch epochs, not their noise)"
+
+
 def calibration_sentence(campaigns_dir: Path, runs: int, alarms: int) -> str:
     """How the remaining false alarms compare with what the shipped chi2 calibration predicts."""
     from tools.calibration.thresholds import false_alarm_prediction_interval
@@ -188,7 +199,8 @@ def section(path: Path, fig_dir: Path, doc_dir: Path) -> Section:
     s.discussion = DISCUSSION.format(
         tail=100 * e["closing tail"]["rate"], mid=100 * e["mid-arc"]["rate"], last=100 * e["last full batch"]["rate"],
         tail_d=e["closing tail"]["mean_D"], mid_d=e["mid-arc"]["mean_D"], n=n, before=before, after=after,
-        calibration=calibration_sentence(Path(path).parent, n, after))
+        calibration=calibration_sentence(Path(path).parent, n, after),
+        shared=shared_epochs(res["short_tail_open"]["declarations"]))
     return s
 
 
@@ -207,7 +219,7 @@ a full batch): the tail's statistic exceeded the threshold in {tail:.0f} % of th
 {last:.0f} %), and, repeating the last full batch's excursion, it gave the k-of-n rule a second
 exceedance at entry. The tail now stays open unless it holds half a batch (its measurements still
 update every filter): {before} false alarms in {n} runs become {after}, and what remains is spread
-over the arc. {calibration}"""
+over the arc{shared}. {calibration}"""
 
 
 __all__ = ["COMMAND", "FILE", "declaration_day", "fly", "measure", "plot", "section", "summarize", "tail_is_short"]
