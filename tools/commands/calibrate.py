@@ -46,6 +46,7 @@ import shlex
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -124,7 +125,7 @@ PROCEDURE_OPTIONS = {"scenario": "scenario", "network": "networks", "seeds": "se
 def resolve_plan(args) -> CalibrationPlan:
     """The procedure: the plan (or the defaults), with every option the command line gave on top."""
     base = load_plan(args.plan) if args.plan else PROCEDURE_DEFAULTS
-    given = {}
+    given: dict[str, Any] = {}
     for opt, field in PROCEDURE_OPTIONS.items():
         value = getattr(args, opt)
         if value is not None:
@@ -300,7 +301,7 @@ def _calibrate_one(args, plan: CalibrationPlan, base: ScenarioConfig, nominal, h
     try:
         detector, report = calibrate(
             histories, plan.target_fa, network=network, filters=filters, statistic=plan.statistic,
-            persistence=tuple(plan.persistence), hold=plan.hold, warmup=plan.warmup,
+            persistence=plan.persistence, hold=plan.hold, warmup=plan.warmup,
             segment_batches=plan.segment_batches,
         )
     except CalibrationError as exc:

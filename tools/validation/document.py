@@ -70,7 +70,8 @@ def batch_statistics(camp: Path, rows: list[ResultRow], cases: tuple[str, ...], 
     consistent filter gives about Σ n_j over a batch: M plus one per two-dimensional measurement."""
     from tools.campaign.store import has_weights, load_weights
 
-    body, names = [], ()
+    body: list[list[str]] = []
+    names: tuple[str, ...] = ()
     for case in cases:
         per_run = []
         for r in rows:
