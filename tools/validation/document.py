@@ -470,6 +470,9 @@ def detection_discussion(by_net: dict[str, dict[str, list[AnomalyBlock]]], cases
         res = by_net.get(net, {}).get(case, [])
         return sum(1 for a in res if a.detected), len(res)
 
+    def pre(net: str, case: str) -> int:
+        return sum(1 for a in by_net.get(net, {}).get(case, []) if a.false_alarm)
+
     faults = [c for c in cases if any(a.true_class != "none" for a in by_net.get("chi2", {}).get(c, []))]
     paras = []
     fa = []
@@ -489,9 +492,16 @@ def detection_discussion(by_net: dict[str, dict[str, list[AnomalyBlock]]], cases
     chi2 = by_net.get("chi2", {})
     if chi2 and faults:
         full = [c for c in faults if pd("chi2", c)[0] == pd("chi2", c)[1]]
-        part = [f"{c} {pd('chi2', c)[0]}/{pd('chi2', c)[1]}" for c in faults if c not in full]
-        txt = "**What chi2 detects.** Every run of " + (", ".join(full) if full else "no case")
-        txt += ("; only part of the runs of " + ", ".join(part)) if part else ""
+        all_but_pre = [c for c in faults if c not in full and pd("chi2", c)[0] + pre("chi2", c) == pd("chi2", c)[1]]
+        part = [f"{c} {pd('chi2', c)[0]}/{pd('chi2', c)[1]}" for c in faults if c not in full + all_but_pre]
+        txt = "**What chi2 detects.** " + ("Every run of " + ", ".join(full) + ". " if full else "")
+        if all_but_pre:
+            txt += ("Every run that had not already declared a false alarm before the onset (then the declaration "
+                    "is counted as a false alarm, not a detection) of " + ", ".join(
+                        f"{c} ({pd('chi2', c)[0]}/{pd('chi2', c)[1]}, {pre('chi2', c)} pre-onset)" for c in all_but_pre)
+                    + ". ")
+        txt += ("Only part of the runs of " + ", ".join(part) + ". ") if part else ""
+        txt = txt.rstrip(". ")
         lat = {c: [a.latency_s / 3600.0 for a in chi2.get(c, []) if a.detected and a.latency_s is not None]
                for c in faults}
         med = {c: float(np.median(v)) for c, v in lat.items() if v}
@@ -524,8 +534,9 @@ def detection_discussion(by_net: dict[str, dict[str, list[AnomalyBlock]]], cases
                      "first days and, never forgetting, move only when the fused filter's likelihood collapses "
                      "against another's — Lubey & Ely's (2022) criticism of Magill, measured.")
     if "chi2-two-sided" in by_net and "chi2" in by_net:
-        diff = [f"{c} ({pd('chi2-two-sided', c)[0]} against {pd('chi2', c)[0]})" for c in faults
-                if pd("chi2-two-sided", c)[0] != pd("chi2", c)[0]]
+        diff = [f"{c} ({pd('chi2-two-sided', c)[0]} against {pd('chi2', c)[0]}"
+                + (f", chi2 with {pre('chi2', c)} pre-onset false alarm(s))" if pre("chi2", c) else ")")
+                for c in faults if pd("chi2-two-sided", c)[0] != pd("chi2", c)[0]]
         paras.append("**chi2-two-sided** detects the same runs as chi2 " + (
             "in every case" if not diff else "except " + ", ".join(diff)) + ", and it fixes the over-inflated-filter "
             "weakness (next section). `insight-approach` has no -Q filters, so dynamics faults show up on this "
