@@ -39,7 +39,7 @@ def plot(rec: CalibrationRecord, path: Path) -> Path:
 
     nets = [n for n in rec.networks if n.holdout is not None]
     x = np.arange(len(nets))
-    fig, ax = plt.subplots(figsize=(6.5, 3.6))
+    fig, ax = plt.subplots(figsize=(8.5, 3.6))
     for i, n in enumerate(nets):
         h = n.holdout
         assert h is not None
@@ -55,7 +55,7 @@ def plot(rec: CalibrationRecord, path: Path) -> Path:
     ax.set_ylabel("false alarms per 45-day run [%]")
     ax.set_title(f"{rec.plan.scenario}: {rec.networks[0].runs} calibration runs, "
                  f"{nets[0].holdout_runs if nets else 0} held out")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the bars, never over them
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
