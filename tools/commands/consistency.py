@@ -10,10 +10,8 @@ from ``campaigns/filter-consistency.json``. Exit codes: 0 written, 2 bad argumen
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 
-from tools.commands.outputs import check_output_file
+from tools.commands.outputs import check_output_file, emit_json
 
 NAME = "consistency"
 HELP = "NEES/NIS of a filter against truth over nominal seeds (JSON summary)"
@@ -44,10 +42,5 @@ def run(args) -> int:
 
     if args.out:
         check_output_file(args.out)
-    res = measure(args.seeds, args.first_seed, args.workers, args.scenario, args.filter)
-    text = json.dumps(res, indent=2)
-    if args.out:
-        with open(args.out, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
-    sys.stdout.write(text + "\n")
+    emit_json(measure(args.seeds, args.first_seed, args.workers, args.scenario, args.filter), args.out)
     return 0

@@ -10,11 +10,8 @@ Exit codes: 0 written, 2 bad arguments.
 
 from __future__ import annotations
 
-import json
-import sys
-
 from tools.commands.consistency import _positive
-from tools.commands.outputs import check_output_file
+from tools.commands.outputs import check_output_file, emit_json
 
 NAME = "false-alarms"
 HELP = "declaration epochs of the chi2 detector over nominal seeds (JSON summary)"
@@ -34,10 +31,5 @@ def run(args) -> int:
 
     if args.out:
         check_output_file(args.out)
-    res = measure(args.seeds, args.first_seed, args.workers, args.scenario)
-    text = json.dumps(res, indent=2)
-    if args.out:
-        with open(args.out, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
-    sys.stdout.write(text + "\n")
+    emit_json(measure(args.seeds, args.first_seed, args.workers, args.scenario), args.out)
     return 0

@@ -74,3 +74,15 @@ def check_output_file(path: str | os.PathLike, option: str = "--out") -> Path:
     except OSError as exc:
         raise UsageError(f"{option} {os.fspath(path)}: cannot write: {errno_text(exc)}") from None
     return p
+
+
+def emit_json(result: object, out: str | os.PathLike | None) -> None:
+    """A command's JSON result: to ``out`` (already checked writable) when given, and to stdout."""
+    import json
+    import sys
+
+    text = json.dumps(result, indent=2)
+    if out:
+        with open(out, "w", encoding="utf-8") as fh:
+            fh.write(text + "\n")
+    sys.stdout.write(text + "\n")
