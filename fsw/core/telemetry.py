@@ -63,13 +63,13 @@ def weights_message(upd: WeightsUpdate) -> m.FilterWeights:
 
 def estimate_message(est: FilterEstimate, label: str, full_covariance: bool) -> m.Estimate:
     """One navigation solution; the full covariance only when configured (it is N² numbers)."""
+    x = np.asarray(est.x, dtype=float).tolist()  # Python floats, as float(v) of each
     return m.Estimate(
         t_s=float(est.t), timestamp=stamp(est.t), filter=label,
-        position_km=tuple(float(v) for v in est.position_km),
-        velocity_km_s=tuple(float(v) for v in est.velocity_km_s),
+        position_km=tuple(x[0:3]), velocity_km_s=tuple(x[3:6]),
         position_sigma_km=float(est.position_sigma_km), state_names=tuple(est.state_names),
-        state=tuple(float(v) for v in est.x), sigma=tuple(float(v) for v in est.sigma),
-        covariance=tuple(tuple(float(v) for v in row) for row in est.P) if full_covariance else None,
+        state=tuple(x), sigma=tuple(np.asarray(est.sigma, dtype=float).tolist()),
+        covariance=tuple(map(tuple, np.asarray(est.P, dtype=float).tolist())) if full_covariance else None,
     )
 
 
@@ -82,6 +82,16 @@ def residual_sample(rec: BankRecord, source: str) -> m.ResidualSample:
     residual = np.asarray(rec.residual, dtype=float)
     n_f, n = residual.shape
     z = residual.tolist()
+    if n == 1:
+        # scalar kinds (range, Doppler: most measurements): S is its own diagonal
+        sig1 = [math.sqrt(max(v, 0.0)) for v in np.asarray(rec.S, dtype=float).ravel().tolist()]
+        return m.ResidualSample(
+            t_s=float(rec.t), seq=int(rec.seq), kind=rec.kind, source=source, residual=tuple(map(tuple, z)),
+            sigma=tuple([(s,) for s in sig1]),
+            normalised=tuple([(a / s if s > 0.0 else 0.0,) for (a,), s in zip(z, sig1)]),
+            nis=tuple(np.asarray(rec.chi2, dtype=float).tolist()),
+            processed=tuple(np.asarray(rec.processed, dtype=bool).tolist()),
+        )
     variances = np.asarray(rec.S, dtype=float).reshape(n_f, n * n)[:, ::n + 1].tolist()  # diag S per filter
     sigma = [[math.sqrt(max(v, 0.0)) for v in row] for row in variances]
     norm = [tuple([a / s if s > 0.0 else 0.0 for a, s in zip(z_i, s_i)]) for z_i, s_i in zip(z, sigma)]

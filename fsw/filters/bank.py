@@ -62,6 +62,9 @@ class FilterBank:
         self._process_masks = {k: np.array([k in f.processes for f in config.filters]) for k in self.KINDS}
         self._sigma_scale = {k: np.array([f.sigma_scale.get(k, 1.0) for f in config.filters]) for k in self.KINDS}
         self._gate = np.array([np.inf if f.gate_chi2 is None else f.gate_chi2 for f in config.filters])
+        self._gate_key: np.ndarray | None = None
+        self._gate_seen = b""
+        self._gate_cached: np.ndarray | None = None
 
     # -- introspection -------------------------------------------------------------------------
     @property
@@ -105,6 +108,8 @@ class FilterBank:
     def adaptive_lp_cost(self) -> float:
         """Declared work units of the enabled filters' FLR slope fits in one update (Garhwal et al.;
         :meth:`fsw.filters.adaptive_q.AdaptiveQ.declared_cost`); 0 without fuzzy-adaptive filters."""
+        if not self.stack.any_adaptive:
+            return 0.0  # asked per measurement
         return float(sum(aq.declared_cost() for aq, on in zip(self.stack.adaptive_q, self.active)
                          if aq is not None and on))
 
@@ -233,14 +238,21 @@ class FilterBank:
         m = sigma.size
         R = var[:, :, None] if m == 1 else var[:, :, None] * (_EYES[m] if m in _EYES else np.eye(m))
         does = self._process_masks[kind] & self.active
-        gate = None if self._no_gate() else self._gate
+        gate = self._gate_or_none
         residual, S, chi2, processed = self.stack.update(value, h, H, R, does, gate)
         self.processed_count += 1
         return BankRecord(t=float(meas.t_s), seq=int(meas.seq), kind=str(kind), filters=self.names,
                           residual=residual, S=S, chi2=chi2, processed=processed.copy(), active=self.active.copy())
 
-    def _no_gate(self) -> bool:
-        return bool(np.isinf(self._gate).all())
+    @property
+    def _gate_or_none(self) -> np.ndarray | None:
+        """The per-filter gates, None while no filter edits (cached: read per measurement, set by
+        telecommand)."""
+        gates = self._gate
+        if self._gate_key is not gates or self._gate_seen != gates.tobytes():
+            self._gate_key, self._gate_seen = gates, gates.tobytes()
+            self._gate_cached = None if bool(np.isinf(gates).all()) else gates
+        return self._gate_cached
 
     def propagate_to(self, t: float) -> None:
         """Advance every filter to t without a measurement (e.g. for an estimate output)."""

@@ -316,6 +316,11 @@ class EKFStack:
                 self._next_event = rest[0] if rest else math.inf
         self._propagate_interval(t1)
 
+    @property
+    def any_adaptive(self) -> bool:
+        """Whether any filter adapts its process noise (:mod:`fsw.filters.adaptive_q`)."""
+        return self._any_adaptive
+
     # -- what the measurement models read -------------------------------------------------------
     @property
     def clock_columns(self) -> tuple[int, int] | None:
