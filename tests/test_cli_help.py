@@ -71,3 +71,28 @@ def test_mistyped_set_key_suggests_the_declared_one():
         load_fsw_config(text, "run.mcap", overrides=["fsw.gating[0].sigma_ww=0.1"])
     assert str(exc.value).startswith("--set fsw.gating[0].sigma_ww=0.1: fsw.gating[0].sigma_ww:")
     assert "(did you mean 'sigma_w'?)" in str(exc.value)
+
+
+@pytest.mark.parametrize("module_name", COMMANDS)
+def test_each_command_is_found_by_its_name(module_name):
+    """A command line imports only its command's module (``tools.cli.BY_NAME``): each module's
+    NAME must be the name that map gives it."""
+    import importlib
+
+    from tools.cli import BY_NAME
+
+    module = importlib.import_module(module_name)
+    assert BY_NAME[module.NAME] == module_name
+
+
+def test_a_command_line_imports_only_its_command():
+    import subprocess
+    import sys
+
+    code = ("import sys; from tools.cli import main\n"
+            "try:\n    main(['scenarios', '--help'])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.startswith('tools.commands.') and m.count('.') == 2))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True).stdout
+    loaded = eval(out.strip().splitlines()[-1])
+    assert "tools.commands.scenarios" in loaded
+    assert "tools.commands.bench" not in loaded and "tools.commands.validation_report" not in loaded

@@ -56,7 +56,22 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: Subcommand name -> its module (each module's ``NAME`` is its module name with ``-`` for ``_``;
+#: ``tests/test_cli_help.py`` checks it).
+BY_NAME: dict[str, str] = {m.rsplit(".", 1)[1].replace("_", "-"): m for m in COMMANDS}
+
+
+def _requested(argv: list[str]) -> tuple[str, ...]:
+    """The command modules a command line needs: the named command's alone (every process of a
+    run starts with a command line, and importing all eighteen commands — plotting, campaigns,
+    the launcher — cost each of them about a second of CPU), or all of them for the top-level
+    help, the version and an unknown command (whose error lists them)."""
+    if argv and argv[0] in BY_NAME:
+        return (BY_NAME[argv[0]],)
+    return COMMANDS
+
+
+def build_parser(commands: tuple[str, ...] = COMMANDS) -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="navbank",
         description="Flight-software-in-the-loop simulator for autonomous deep-space navigation "
@@ -64,7 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=version_text())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for module_name in COMMANDS:
+    for module_name in commands:
         module = importlib.import_module(module_name)
         p = sub.add_parser(module.NAME, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP))
         module.add_arguments(p)
@@ -74,7 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     watch_supervisor_from_env()
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(_requested(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
         parser.print_help()

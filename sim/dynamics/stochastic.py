@@ -28,7 +28,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
 from fsw.astro.constants import SECONDS_PER_DAY
 from sim.dynamics.config import ForceModelConfig
@@ -147,6 +146,9 @@ class StochasticRealisation:
         m = self.nga_factor
         drive = self.nga_normals * (sigma * math.sqrt(1.0 - m * m))[:, None]
         drive[0] = sigma[0] * self.nga_normals[0]
+        # imported here: scipy.signal costs every process that loads a scenario ~0.25 s at start
+        from scipy.signal import lfilter
+
         accel = lfilter([1.0], [1.0, -m], drive, axis=0)
         return dataclasses.replace(self, nga_accel=accel)
 
