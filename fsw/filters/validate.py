@@ -16,6 +16,12 @@ from fsw.interface.messages import Measurement
 
 
 def _finite_vector(values: object, name: str) -> np.ndarray:
+    if type(values) is tuple and values and all([type(v) is float for v in values]):
+        # what a decoded ICD message holds: tested as Python floats (a numpy reduction per
+        # vector cost more than the rest of the screening)
+        if not all(map(math.isfinite, values)):
+            raise MeasurementRejected("non_finite", f"{name} has non-finite entries: {list(values)}")
+        return np.array(values)
     try:
         arr = np.array(values, dtype=float)
     except (TypeError, ValueError):
@@ -46,6 +52,6 @@ def screen(meas: Measurement, dimensions: Mapping[str, int | None]) -> tuple[np.
         raise MeasurementRejected("bad_dimension", f"{kind} has {want} component(s), got {value.size}")
     if sigma.size != value.size:
         raise MeasurementRejected("bad_dimension", f"sigma has {sigma.size} components, value {value.size}")
-    if float(sigma.min()) <= 0.0:
+    if min(sigma.tolist()) <= 0.0:
         raise MeasurementRejected("bad_sigma", f"sigma must be > 0, got {sigma.tolist()}")
     return value, sigma
