@@ -50,6 +50,13 @@ def test_campaign_on_a_real_dask_scheduler_equals_the_local_executor(tmp_path, s
     with LoopbackCluster(2, start_timeout_s=60.0) as cluster:
         assert cluster.address.startswith("tcp://127.0.0.1:")
         worker_pids = {p.pid for p in cluster.processes()[:2]}
+        import distributed
+
+        with distributed.Client(cluster.address, timeout=30) as client:
+            # the preload keeps dask's statistical profiler off the workers (tools.campaign.warm)
+            profiling = client.run(lambda dask_worker: sorted(k for k in dask_worker.periodic_callbacks
+                                                              if k.startswith("profile")))
+        assert len(profiling) == 2 and all(v == [] for v in profiling.values()), profiling
         outcome = run_campaign(plan, tmp_path / "dask", lambda: DaskExecutor(2, cluster.address), quiet=True)
         procs = cluster.processes()
     # torn down: every process the cluster started has exited

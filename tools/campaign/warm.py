@@ -9,7 +9,8 @@ process for the latter, so that no run's first frames are charged for it.
 
 Hooks: the local pool's initializer is :func:`init_worker`; dask calls :func:`dask_setup` of a
 preloaded module (``dask worker --preload tools.campaign.warm``; the ``LocalCluster`` of
-:mod:`tools.campaign.executors` preloads it too). Importing the module alone flies nothing.
+:mod:`tools.campaign.executors` preloads it too), which also keeps dask's statistical profiler
+off the worker (:func:`stop_profiler`). Importing the module alone flies nothing.
 """
 
 from __future__ import annotations
@@ -41,9 +42,28 @@ def init_worker() -> None:
     warm_up()
 
 
+#: The periodic callbacks of dask's statistical profiler on a worker.
+PROFILER_CALLBACKS = ("profile", "profile-cycle")
+
+
+def stop_profiler(worker: Any) -> None:
+    """Keep dask's statistical profiler off this worker: every 10 ms it takes the GIL from the
+    task thread to sample its stack, and a campaign run is pure Python, so it cost the runs
+    ~10 % of a worker's rate (12-day runs on one LocalCluster worker, other load stopped: 30.9
+    and 36.5 runs/min with it, 38.7 and 41.1 without; the local pool 37.9 and 41.3). Called
+    from the preload hook, before the worker starts its periodic callbacks: removed, they never
+    start."""
+    for key in PROFILER_CALLBACKS:
+        callback = worker.periodic_callbacks.pop(key, None)
+        if callback is not None:
+            callback.stop()
+
+
 def dask_setup(worker: Any) -> None:
-    """dask's preload hook: warm the worker process up once, at its start."""
+    """dask's preload hook: no statistical profiler, and the worker process warmed up once, at
+    its start."""
+    stop_profiler(worker)
     warm_up()
 
 
-__all__ = ["init_worker", "dask_setup", "warm_up", "WARM_UP_DAYS"]
+__all__ = ["init_worker", "dask_setup", "stop_profiler", "warm_up", "WARM_UP_DAYS", "PROFILER_CALLBACKS"]
