@@ -62,6 +62,7 @@ class FilterBank:
         self._process_masks = {k: np.array([k in f.processes for f in config.filters]) for k in self.KINDS}
         self._sigma_scale = {k: np.array([f.sigma_scale.get(k, 1.0) for f in config.filters]) for k in self.KINDS}
         self._gate = np.array([np.inf if f.gate_chi2 is None else f.gate_chi2 for f in config.filters])
+        self._layouts: dict[int, tuple[bytes, tuple[str, ...], np.ndarray, bool]] = {}
         self._gate_key: np.ndarray | None = None
         self._gate_seen = b""
         self._gate_cached: np.ndarray | None = None
@@ -90,8 +91,16 @@ class FilterBank:
         """Estimate of one filter, in its own layout (blocks it does not estimate left out)."""
         i = self.index(name)
         keep = self.stack.present[i]
-        names = tuple(n for n, k in zip(self.state_names, keep) if k)
-        return FilterEstimate(name, self.t, names, self.stack.x[i, keep].copy(), self.stack.P[i][np.ix_(keep, keep)].copy())
+        cached = self._layouts.get(i)
+        if cached is None or cached[0] != keep.tobytes():
+            # a filter's layout is fixed at start; the cache only spares the per-estimate work
+            cols = np.flatnonzero(keep)
+            cached = self._layouts[i] = (keep.tobytes(), tuple(self.state_names[c] for c in cols.tolist()), cols,
+                                         bool(keep.all()))
+        _, names, cols, full = cached
+        P = self.stack.P[i]
+        return FilterEstimate(name, self.t, names, self.stack.x[i, cols],
+                              P.copy() if full else P[cols[:, None], cols])
 
     def x(self, name: str) -> np.ndarray:
         return self.filter(name).x
