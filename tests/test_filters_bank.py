@@ -135,6 +135,20 @@ def test_disable_enable_and_runtime_noise_changes(run):
         bank2.set_param("radio", "no.such.param", 1.0)
 
 
+def test_a_gate_set_by_telecommand_edits_the_next_measurement(run):
+    """gate_chi2 set at run time applies from the next measurement on (the bank keeps the gates
+    it reads per measurement, so the setting must reach them); <= 0 turns editing off again."""
+    bank = _bank(run)
+    ranges = [m for m in run.measurements if m.kind == "range"]
+    rec = bank.process(ranges[0])
+    assert rec.processed[0]
+    bank.set_param("radio", "gate_chi2", 1e-12)  # every residual is above it
+    rec = bank.process(ranges[1])
+    assert not rec.processed[0] and rec.processed[2] and rec.chi2[0] > 1e-12
+    bank.set_param("radio", "gate_chi2", 0.0)
+    assert bank.process(ranges[2]).processed[0]
+
+
 def test_combined_and_best_estimates(run):
     bank = _bank(run)
     for m in run.measurements[:40]:

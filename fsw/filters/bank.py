@@ -62,10 +62,10 @@ class FilterBank:
         self._process_masks = {k: np.array([k in f.processes for f in config.filters]) for k in self.KINDS}
         self._sigma_scale = {k: np.array([f.sigma_scale.get(k, 1.0) for f in config.filters]) for k in self.KINDS}
         self._gate = np.array([np.inf if f.gate_chi2 is None else f.gate_chi2 for f in config.filters])
-        self._layouts: dict[int, tuple[bytes, tuple[str, ...], np.ndarray, bool]] = {}
-        self._gate_key: np.ndarray | None = None
-        self._gate_seen = b""
-        self._gate_cached: np.ndarray | None = None
+        self._gate_or_none = self._gates()
+        # each filter's columns of the union state (fixed: a state cannot be added at run time)
+        self._layouts = [(tuple(self.state_names[c] for c in cols.tolist()), cols, bool(keep.all()))
+                         for keep, cols in ((k, np.flatnonzero(k)) for k in self.stack.present)]
 
     # -- introspection -------------------------------------------------------------------------
     @property
@@ -90,14 +90,7 @@ class FilterBank:
     def filter(self, name: str) -> FilterEstimate:
         """Estimate of one filter, in its own layout (blocks it does not estimate left out)."""
         i = self.index(name)
-        keep = self.stack.present[i]
-        cached = self._layouts.get(i)
-        if cached is None or cached[0] != keep.tobytes():
-            # a filter's layout is fixed at start; the cache only spares the per-estimate work
-            cols = np.flatnonzero(keep)
-            cached = self._layouts[i] = (keep.tobytes(), tuple(self.state_names[c] for c in cols.tolist()), cols,
-                                         bool(keep.all()))
-        _, names, cols, full = cached
+        names, cols, full = self._layouts[i]
         P = self.stack.P[i]
         return FilterEstimate(name, self.t, names, self.stack.x[i, cols],
                               P.copy() if full else P[cols[:, None], cols])
@@ -163,6 +156,7 @@ class FilterBank:
             st.snc_psd[i] = value
         elif param == "gate_chi2":
             self._gate[i] = value if value > 0.0 else np.inf
+            self._gate_or_none = self._gates()
         elif param in ("srp.temporal_sigma", "acs.temporal_sigma", "accel.sigma"):
             block = {"srp.temporal_sigma": "srp_stoch", "acs.temporal_sigma": "acs_stoch", "accel.sigma": "accel"}[param]
             if not L.has(block) or value < 0.0:
@@ -253,15 +247,10 @@ class FilterBank:
         return BankRecord(t=float(meas.t_s), seq=int(meas.seq), kind=str(kind), filters=self.names,
                           residual=residual, S=S, chi2=chi2, processed=processed.copy(), active=self.active.copy())
 
-    @property
-    def _gate_or_none(self) -> np.ndarray | None:
-        """The per-filter gates, None while no filter edits (cached: read per measurement, set by
-        telecommand)."""
-        gates = self._gate
-        if self._gate_key is not gates or self._gate_seen != gates.tobytes():
-            self._gate_key, self._gate_seen = gates, gates.tobytes()
-            self._gate_cached = None if bool(np.isinf(gates).all()) else gates
-        return self._gate_cached
+    def _gates(self) -> np.ndarray | None:
+        """The per-filter gates, None while no filter edits (kept in ``_gate_or_none``, read per
+        measurement, rewritten where a telecommand sets a gate)."""
+        return None if bool(np.isinf(self._gate).all()) else self._gate
 
     def propagate_to(self, t: float) -> None:
         """Advance every filter to t without a measurement (e.g. for an estimate output)."""
