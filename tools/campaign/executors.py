@@ -103,6 +103,24 @@ class LocalExecutor:
         self._pool.shutdown(wait=True, cancel_futures=True)
 
 
+#: dask's setting of the environment its nanny gives the worker processes it spawns.
+NANNY_ENV = "distributed.nanny.pre-spawn-environ"
+
+
+def nanny_environ() -> dict[str, Any]:
+    """dask's pre-spawn environment for our LocalCluster's workers, less ``MALLOC_TRIM_THRESHOLD_``.
+
+    dask sets it (to 65536) so that a worker hands freed memory back to the OS at once. A campaign
+    run's memory is small and steady, and the trimming made every run pay: 45-day runs in one
+    process with and without it (three processes each, two runs each, quiet machine) took
+    4.74-5.10 s CPU against 4.60-4.91 s, ~4.5 % more."""
+    import dask
+
+    environ = dict(dask.config.get(NANNY_ENV, default={}) or {})
+    environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+    return environ
+
+
 class DaskExecutor:
     """A dask.distributed client: on ``scheduler`` if given, else on a loopback LocalCluster."""
 
@@ -118,10 +136,13 @@ class DaskExecutor:
         if scheduler:
             self.client = distributed.Client(scheduler, timeout=connect_timeout_s)
         else:
-            self.cluster = distributed.LocalCluster(
-                n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, host="127.0.0.1",
-                dashboard_address=None, silence_logs=logging.ERROR, preload=["tools.campaign.warm"],
-            )
+            import dask
+
+            with dask.config.set({NANNY_ENV: nanny_environ()}):
+                self.cluster = distributed.LocalCluster(
+                    n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, host="127.0.0.1",
+                    dashboard_address=None, silence_logs=logging.ERROR, preload=["tools.campaign.warm"],
+                )
             self.client = distributed.Client(self.cluster, timeout=connect_timeout_s)
         nthreads = self.client.nthreads()
         self.capacity = max(1, sum(nthreads.values())) if nthreads else max(1, int(workers))

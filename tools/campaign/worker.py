@@ -41,7 +41,7 @@ from ground.report.run_weights import RunWeights
 from ground.report.summary_types import ErrorRecord, MonitorBlock
 from tools.campaign.run_mcap import keeps, mcap_bytes
 from tools.campaign.task import RunTask
-from tools.inprocess import RunResult, run_in_process
+from tools.inprocess import RunResult, collector_held, run_in_process
 from tools.scenario import ScenarioConfig
 
 TRACEBACK_LINES = 12
@@ -144,22 +144,28 @@ def execute(task: RunTask) -> RunOutcome:
     t0 = time.perf_counter()
     c0 = time.process_time()
     row = dataclasses.replace(base_row(task), host=socket.gethostname(), pid=os.getpid())
-    weights = None
-    recording = None
+    weights: dict[str, RunWeights] | None = None
+    recording: bytes | None = None
     try:
-        cfg = typed.decode(ScenarioConfig, task.scenario)
-        result = run_in_process(cfg, task.seed, fault_label=task.fault_label, run_id=task.id)
-        if task.extract_weights:
-            weights = {net: weight_history(result, net) for net in task.extract_weights}
-        summary = result.summary
-        if task.monitors:
-            summary = dataclasses.replace(summary, monitors=monitor_summaries(result, task.monitors))
-        if keeps(task.keep_mcap, summary):
-            recording = mcap_bytes(result, task.id)
-        row = dataclasses.replace(row, status="ok", error=None, summary=summary)
-        del result
+        with collector_held():  # the run and what is read out of its messages
+            row, weights, recording = _fly(task, row)
     except Exception as exc:  # a failed run is data for the campaign, not the end of it
         row = dataclasses.replace(row, status="failed", error=error_record(exc), summary=None)
     return RunOutcome(dataclasses.replace(row, wall_time_s=time.perf_counter() - t0, cpu_time_s=time.process_time() - c0,
                                           finished_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())),
                       weights, recording)
+
+
+def _fly(task: RunTask, row: ResultRow) -> tuple[ResultRow, dict[str, RunWeights] | None, bytes | None]:
+    weights = None
+    recording = None
+    cfg = typed.decode(ScenarioConfig, task.scenario)
+    result = run_in_process(cfg, task.seed, fault_label=task.fault_label, run_id=task.id)
+    if task.extract_weights:
+        weights = {net: weight_history(result, net) for net in task.extract_weights}
+    summary = result.summary
+    if task.monitors:
+        summary = dataclasses.replace(summary, monitors=monitor_summaries(result, task.monitors))
+    if keeps(task.keep_mcap, summary):
+        recording = mcap_bytes(result, task.id)
+    return dataclasses.replace(row, status="ok", error=None, summary=summary), weights, recording
