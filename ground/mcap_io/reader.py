@@ -13,7 +13,7 @@ import json
 import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any, BinaryIO, NamedTuple
 
 from mcap.exceptions import McapError
 from mcap.reader import SeekingReader
@@ -22,6 +22,7 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from fsw.interface import codec
+from ground.mcap_io.chunks import read_chunked
 from fsw.interface import topics as icd_topics
 
 _MAGIC = b"\x89MCAP0\r\n"
@@ -139,6 +140,20 @@ def _topic_filter(topic_names: Iterable[str] | str | None) -> set[str] | None:
     return {icd_topics.mcap_topic(t) for t in topic_names}
 
 
+def _chunked(reader: SeekingReader, f: BinaryIO, wanted: set[str] | None
+             ) -> list[tuple[Schema | None, Channel, Message]] | None:
+    """(schema, channel, message) of the ``wanted`` topics of a complete chunked file, in file
+    order, by :mod:`ground.mcap_io.chunks`; None if the file has no summary to find its chunks by
+    (mcap's reader then reads it)."""
+    summ = reader.get_summary()
+    if summ is None or not summ.chunk_indexes:
+        return None
+    channels = summ.channels
+    ids = None if wanted is None else {cid for cid, ch in channels.items() if ch.topic in wanted}
+    schemas = {cid: summ.schemas.get(ch.schema_id) if ch.schema_id else None for cid, ch in channels.items()}
+    return [(schemas[msg.channel_id], channels[msg.channel_id], msg) for msg in read_chunked(f, summ, ids)]
+
+
 def iter_channel_messages(
     path: str | os.PathLike, wanted: set[str] | None = None, *, strict: bool = True, sort_in_memory: bool = False
 ) -> Iterator[tuple[Schema | None, Channel, Message]]:
@@ -156,7 +171,9 @@ def iter_channel_messages(
             if not sort_in_memory:
                 yield from reader.iter_messages(topics=wanted, log_time_order=True)
                 return
-            records = list(reader.iter_messages(topics=wanted, log_time_order=False))
+            records = _chunked(reader, f, wanted)
+            if records is None:
+                records = list(reader.iter_messages(topics=wanted, log_time_order=False))
         records.sort(key=lambda r: r[2].log_time)
         yield from records
         return

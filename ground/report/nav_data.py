@@ -77,6 +77,8 @@ def residual_traces(messages: list[m.Residuals]) -> dict[tuple[str, str], Residu
 def nis_statistics(traces: dict[tuple[str, str], ResidualTrace]) -> dict[str, dict[str, dict[str, float]]]:
     """Per kind and filter: mean NIS of the measurements the filter processed against its expected
     value n (the kind's dimension), and the fraction outside the two-sided 95 % chi-square bounds."""
+    if not traces:
+        return {}  # without importing scipy.stats (0.3 s; the run summary has no residuals)
     from scipy.stats import chi2
 
     by_kind: dict[str, list[ResidualTrace]] = defaultdict(list)
