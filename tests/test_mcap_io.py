@@ -7,9 +7,12 @@ import json
 import jsonschema
 import pytest
 from mcap.reader import make_reader
+from mcap.records import Metadata
+from mcap.writer import IndexType, Writer
 
 from fsw.interface import codec
 from fsw.interface import messages as m
+from ground.mcap_io.reader import iter_records
 from ground.mcap_io import (
     INVALID_PREFIX,
     McapReadError,
@@ -144,3 +147,22 @@ def test_not_mcap_and_schema_mismatch_are_typed_errors(tmp_path):
     assert [x.message for x in read_messages(path, strict=False)] == [b'{"seq":"nope"}']
     with McapRecorder(tmp_path / "c.mcap") as rec, pytest.raises(TypeError):
         rec.write_message("sim/measurements", _weights(0))
+
+
+@pytest.mark.parametrize("index_types", [IndexType.ALL, IndexType.CHUNK])  # CHUNK: no metadata indexes
+def test_metadata_through_the_summary_equals_streaming(tmp_path, index_types):
+    path = tmp_path / "m.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f, chunk_size=1024, index_types=index_types)
+        w.start()
+        ch = w.register_channel(topic="/x", message_encoding="json", schema_id=0)
+        for i in range(200):
+            w.add_message(channel_id=ch, log_time=i, publish_time=i, data=b"{}")
+            if i % 70 == 0:  # the same name again later: the last one wins
+                w.add_metadata(f"name-{i % 140}", {"i": str(i)})
+        w.finish()
+    streamed: dict[str, dict[str, str]] = {}
+    for r in iter_records(path):
+        if isinstance(r, Metadata):
+            streamed[r.name] = dict(r.metadata)
+    assert read_metadata(path) == streamed == {"name-0": {"i": "140"}, "name-70": {"i": "70"}}

@@ -240,7 +240,24 @@ def summary(path: str | os.PathLike) -> dict[str, int]:
 
 
 def read_metadata(path: str | os.PathLike) -> dict[str, dict[str, str]]:
-    """Metadata records by name (the last one wins for a repeated name)."""
+    """Metadata records by name (the last one wins for a repeated name).
+
+    A complete file whose summary indexes every metadata record is read through those indexes,
+    in file order (a few seeks: streaming a 45-day run's 150k records to find its one metadata
+    record took 1 s); any other file is streamed."""
+    if is_complete(path):
+        with open(path, "rb") as f:
+            summ = SeekingReader(f).get_summary()
+            stats = None if summ is None else summ.statistics
+            if summ is not None and stats is not None and len(summ.metadata_indexes) == stats.metadata_count:
+                out: dict[str, dict[str, str]] = {}
+                for index in sorted(summ.metadata_indexes, key=lambda i: i.offset):
+                    f.seek(index.offset)
+                    record = next(StreamReader(f, skip_magic=True).records)
+                    if not isinstance(record, Metadata):
+                        raise McapReadError(f"{os.fspath(path)}: a metadata index points at {type(record).__name__}")
+                    out[record.name] = dict(record.metadata)
+                return out
     return {r.name: dict(r.metadata) for r in iter_records(path) if isinstance(r, Metadata)}
 
 
