@@ -28,6 +28,7 @@ import time
 from typing import Callable, ClassVar, cast
 
 import numpy as np
+import scipy.optimize  # noqa: F401  (loaded with the core, not in the first frame that solves an adaptive-Q LP)
 
 from fsw.config import FswConfig, InitialState
 from fsw.core import commands
@@ -48,6 +49,7 @@ from fsw.filters.record import BankRecord
 from fsw.gating.base import GatingError, GatingNetwork, WeightsUpdate, check_record
 from fsw.gating.registry import make_network
 from fsw.ingest import SequenceGuard
+from fsw import kernels
 from fsw.interface import codec, messages as m, topics
 
 
@@ -62,6 +64,7 @@ class FswCore:
                  clock: Callable[[], float] = time.thread_time):
         if config.initial_state is None:
             raise ValueError("the FSW needs an a-priori initial state (fsw.initial_state)")
+        kernels.load_all()  # the models' kernels, compiled or loaded now, not in the first frames
         self.config = config
         self.run_id = run_id
         self._sink = emit

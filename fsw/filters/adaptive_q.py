@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
-from scipy.optimize import linprog
 
 from fsw.interface.typed import spec
 
@@ -99,6 +98,10 @@ def flr_line(t: np.ndarray, y: np.ndarray, h: float, big_m: float | None = None)
         span = float(t.max() - t.min())
         m1 = big_m / span if span > 0.0 else big_m
         bounds = [(-big_m, big_m), (-m1, m1), (0.0, big_m), (0.0, m1)]
+    # imported here: the configuration imports this module in every process (0.1 s); the FSW core
+    # imports it with itself (fsw.core.fswcore), so no frame pays for it
+    from scipy.optimize import linprog
+
     res = linprog(cost, A_ub=np.vstack([a11, a12]), b_ub=np.concatenate([y, -y]), bounds=bounds, method="highs")
     if res.status != 0 or res.x is None:
         return FlrFit(math.nan, math.nan, math.nan, math.nan, int(res.status) if res.status != 0 else 4)

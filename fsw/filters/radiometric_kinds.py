@@ -20,8 +20,10 @@ from fsw.filters.errors import MeasurementRejected
 from fsw.interface import kinds
 from fsw.interface.messages import Measurement
 from fsw.models.environment import Environment
-from fsw.kernels.doppler import doppler_prediction
+from fsw.kernels import on_first_call
 from fsw.models.radiometric import solve_uplinks, uplink
+
+doppler_prediction = on_first_call(globals(), "doppler_prediction", "fsw.kernels.doppler")
 
 if TYPE_CHECKING:
     from fsw.filters.ekf import EKFStack

@@ -17,11 +17,9 @@ import numpy as np
 from numba import njit
 
 from fsw.kernels import configure_cache_dir
+from fsw.kernels.codes import AT_TARGET, BEHIND_CAMERA, OK
 
 configure_cache_dir()
-
-#: Return codes of :func:`pinhole_image`.
-OK, AT_TARGET, BEHIND_CAMERA = 0, 1, 2
 
 
 @njit("int64(float64[:, ::1], float64[:, ::1], float64[::1], float64[::1], float64[:, ::1], float64[::1], "

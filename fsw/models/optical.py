@@ -25,8 +25,11 @@ import numpy as np
 
 from fsw.astro.constants import C_KM_S
 from fsw.astro.frames import quat_to_matrix
-from fsw.kernels.camera import AT_TARGET, BEHIND_CAMERA, pinhole_image
+from fsw.kernels import on_first_call
+from fsw.kernels.codes import AT_TARGET, BEHIND_CAMERA
 from fsw.models.environment import MARS, Environment
+
+pinhole_image = on_first_call(globals(), "pinhole_image", "fsw.kernels.camera")
 
 
 class GeometryError(ValueError):

@@ -39,8 +39,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsw.astro.constants import C_KM_S, GM_SUN, OMEGA_EARTH_RAD_S
-from fsw.kernels.light_time import uplink_light_time, uplink_reception, uplink_solution
+from fsw.kernels import on_first_call
 from fsw.models.environment import Environment
+
+uplink_light_time = on_first_call(globals(), "uplink_light_time", "fsw.kernels.light_time")
+uplink_reception = on_first_call(globals(), "uplink_reception", "fsw.kernels.light_time")
+uplink_solution = on_first_call(globals(), "uplink_solution", "fsw.kernels.light_time")
 
 
 @dataclass(frozen=True)

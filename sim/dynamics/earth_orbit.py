@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from fsw.astro.constants import GM_EARTH, OMEGA_EARTH_RAD_S, R_EARTH_EQ_KM
 from fsw.interface.typed import spec
@@ -97,6 +96,9 @@ def energy(z: np.ndarray, cfg: EarthForceConfig) -> np.ndarray:
 def propagate(z0: np.ndarray, t_offsets: np.ndarray, cfg: EarthForceConfig) -> np.ndarray:
     """Truth states (K, 6) at t_offsets (K,) seconds after the state z0 (t_offsets ascending, ≥ 0)."""
     t = np.asarray(t_offsets, dtype=float)
+    # imported here: the scenario configuration imports this module in every process (0.25 s)
+    from scipy.integrate import solve_ivp
+
     sol = solve_ivp(lambda _t, z: derivative(z, cfg), (0.0, float(t[-1])), np.asarray(z0, dtype=float),
                     method="DOP853", t_eval=t, rtol=1e-12, atol=1e-9)
     if not sol.success:

@@ -13,14 +13,17 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.integrate import OdeSolution, solve_ivp
 
 from fsw.astro.ephemeris import EphemerisTable, default_ephemeris
 from sim.dynamics.config import ForceModelConfig
 from sim.dynamics.forces import TABLE_BODIES, cruise_attitude, make_rhs
 from sim.dynamics.stochastic import DynamicsError, StochasticRealisation
+
+if TYPE_CHECKING:
+    from scipy.integrate import OdeSolution
 
 
 def make_table(t_a: float, t_b: float, step_s: float = 1800.0) -> EphemerisTable:
@@ -33,7 +36,7 @@ def make_table(t_a: float, t_b: float, step_s: float = 1800.0) -> EphemerisTable
 class _Segment:
     t_lo: float
     t_hi: float
-    sol: OdeSolution
+    sol: "OdeSolution"
     nfev: int
     ts_sorted: list  # the solver's step times, ascending (for the scalar fast path)
 
@@ -151,6 +154,9 @@ def propagate(
     ``carry_step``: start each segment with the step the previous one ended with instead of
     re-estimating it (None: only when the realisation has the hour-batched NGA).
     """
+    # imported here: the scenario configuration imports this module in every process (0.25 s)
+    from scipy.integrate import solve_ivp
+
     x = np.asarray(x0, dtype=float).reshape(-1)
     if x.shape != (6,) or not np.all(np.isfinite(x)):
         raise DynamicsError(f"initial state must be 6 finite numbers, got shape {np.shape(x0)}")

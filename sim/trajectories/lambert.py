@@ -23,7 +23,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 
 class LambertError(ValueError):
@@ -65,6 +64,8 @@ def lambert(r1, r2, tof_s: float, mu: float, prograde: bool = True) -> tuple[np.
         raise LambertError("r1 and r2 are (anti-)parallel: the transfer plane is undefined")
     A = math.sin(dnu) * math.sqrt(n1 * n2 / (1.0 - cos_dnu))
     sqrt_mu = math.sqrt(mu)
+    # imported here: the scenario configuration imports this module in every process (0.1 s)
+    from scipy.optimize import brentq
 
     def y(z: float) -> float:
         C, S = stumpff(z)

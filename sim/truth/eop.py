@@ -17,7 +17,6 @@ from pathlib import Path
 
 import erfa
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from fsw.astro.constants import SECONDS_PER_DAY
 
@@ -44,6 +43,9 @@ class EopSample:
 
 class _Span:
     def __init__(self, tai_s: np.ndarray, cols: np.ndarray) -> None:
+        # imported here: the scenario configuration imports this module in every process (0.3 s)
+        from scipy.interpolate import CubicSpline
+
         self.lo, self.hi = float(tai_s[0]), float(tai_s[-1])
         self.spline = CubicSpline(tai_s, cols, axis=0)
         self.slope = self.spline.derivative()
