@@ -54,3 +54,33 @@ def test_load_all_binds_the_stand_ins_not_yet_called():
     ns["floor"] = kernels.on_first_call(ns, "floor", "math")
     kernels.load_all()
     assert ns["floor"] is math.floor
+
+
+def _modules_after(code: str) -> list[str]:
+    out = subprocess.run([sys.executable, "-c", code + f"\nimport sys\nprint(sorted(m for m in {HEAVY!r} if m in sys.modules))"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    return eval(out.stdout.strip().splitlines()[-1])
+
+
+def test_the_fsw_loads_scipy_optimize_only_for_an_adaptation(tmp_path):
+    """SLSQP (the RQP adaptation) and linprog (adaptive process noise) are loaded while the core
+    is built when it needs them, never in a frame; otherwise not at all (0.3 s of a start). The
+    FSW reads a resolved scenario (the launcher's config.yaml), as here."""
+    import dataclasses
+
+    from tools.scenario import load_scenario, resolve, to_yaml
+
+    def modules(name: str, rqp: bool) -> list[str]:
+        cfg, _ = resolve(load_scenario(name), 1)
+        if rqp:
+            cfg = dataclasses.replace(cfg, fsw=dataclasses.replace(cfg.fsw, rqp=dataclasses.replace(cfg.fsw.rqp, enabled=True)))
+        path = tmp_path / f"{name}-{rqp}.yaml"
+        path.write_text(to_yaml(cfg, complete=True), encoding="utf-8")
+        return _modules_after("from fsw.core import FswCore\nfrom tools.scenario import load_scenario, resolve\n"
+                              f"cfg, _ = resolve(load_scenario({str(path)!r}), 1)\nFswCore(cfg.fsw, lambda t, m: None)")
+
+    plain = modules("insight-approach", rqp=False)
+    assert "numba" in plain and "scipy.optimize" not in plain
+    assert "scipy.optimize" in modules("insight-approach", rqp=True)
+    assert "scipy.optimize" in modules("leo-injection", rqp=False)  # its filters adapt their process noise

@@ -28,7 +28,7 @@ import numpy as np
 from fsw.executive.config import BudgetConfig
 from fsw.filters.bank import FilterBank
 from fsw.filters.errors import MeasurementRejected
-from fsw.filters.rqp import RqpBounds, RqpSearch
+from fsw.filters.rqp import RqpBounds, RqpSearch, slsqp_core
 from fsw.filters.rqp_config import RqpConfig, RqpParam
 from fsw.core.telemetry import stamp
 from fsw.interface import messages as m
@@ -75,6 +75,8 @@ class OnboardRqp:
         self._work_units = budget.mode == "work-units"
         self._cpu_scale = budget.cpu_scale
         self.enabled = config.enabled
+        if self.enabled:
+            slsqp_core()  # the solver loaded now, not in the frame of the first search slice
         self.every = config.every
         self.window: list[Measurement] = []
         self._snapshot: FilterBank | None = None
@@ -105,6 +107,8 @@ class OnboardRqp:
         if enabled is not None and enabled != self.enabled:
             self.enabled = enabled
             self.window, self._snapshot = [], None
+            if enabled:
+                slsqp_core()
         if every is not None and every != self.every:
             self.every = every
             self.window, self._snapshot = [], None

@@ -28,7 +28,6 @@ import time
 from typing import Callable, ClassVar, cast
 
 import numpy as np
-import scipy.optimize  # noqa: F401  (loaded with the core, not in the first frame that solves an adaptive-Q LP)
 
 from fsw.config import FswConfig, InitialState
 from fsw.core import commands
@@ -42,6 +41,7 @@ from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, bpl
 from fsw.executive import BudgetReportData, FrameExecutive
 from fsw.executive.work import Job, Stage
 from fsw.fdir.detector import AnomalyDetector, AnomalyState
+from fsw.filters.adaptive_q import linprog_solver
 from fsw.filters.bank import FilterBank, FilterEstimate
 from fsw.filters.orbit_bank import OrbitBank
 from fsw.filters.errors import MeasurementRejected
@@ -76,6 +76,8 @@ class FswCore:
                                                                init.velocity_km_s))
         else:
             self.bank = FilterBank(config.bank, init.t_s, init.position_km, init.velocity_km_s)
+        if any(f.process_noise.mode != "fixed" for f in config.bank.filters):
+            linprog_solver()  # loaded while the core is built, not in the frame of the first adaptive-Q LP
         self.filters = tuple(self.bank.names)
         self.networks: dict[str, GatingNetwork] = {
             g.network: make_network(g.network, self.filters, g.params) for g in config.gating

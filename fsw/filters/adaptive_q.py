@@ -29,13 +29,22 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
 from fsw.interface.typed import spec
 
 ProcessNoiseMode = Literal["fixed", "fuzzy-adaptive", "lsq-adaptive"]
+
+
+def linprog_solver() -> Any:
+    """:func:`scipy.optimize.linprog`, imported on demand: the configuration imports this module in
+    every process and scipy.optimize costs 0.1-0.3 s of a start. The FSW core asks for it while
+    it is built when a filter adapts its process noise, not in the frame of the first LP."""
+    from scipy.optimize import linprog
+
+    return linprog
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,11 +107,7 @@ def flr_line(t: np.ndarray, y: np.ndarray, h: float, big_m: float | None = None)
         span = float(t.max() - t.min())
         m1 = big_m / span if span > 0.0 else big_m
         bounds = [(-big_m, big_m), (-m1, m1), (0.0, big_m), (0.0, m1)]
-    # imported here: the configuration imports this module in every process (0.1 s); the FSW core
-    # imports it with itself (fsw.core.fswcore), so no frame pays for it
-    from scipy.optimize import linprog
-
-    res = linprog(cost, A_ub=np.vstack([a11, a12]), b_ub=np.concatenate([y, -y]), bounds=bounds, method="highs")
+    res = linprog_solver()(cost, A_ub=np.vstack([a11, a12]), b_ub=np.concatenate([y, -y]), bounds=bounds, method="highs")
     if res.status != 0 or res.x is None:
         return FlrFit(math.nan, math.nan, math.nan, math.nan, int(res.status) if res.status != 0 else 4)
     p0, p1, c0, c1 = (float(v) for v in res.x)

@@ -22,17 +22,27 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize._slsqplib import slsqp as _slsqp  # reverse-communication core of SLSQP
 
 if TYPE_CHECKING:
     from fsw.filters.linear import LinearFilterBank as LinearFilterBankLike
 
 #: Relative step of the central differences.
 FD_STEP = 1e-4
+
+
+def slsqp_core() -> Any:
+    """scipy's reverse-communication core of SLSQP (``scipy.optimize._slsqplib.slsqp``).
+
+    Imported on demand: every FSW process imports this module, and scipy.optimize costs 0.3 s of
+    its start. The FSW core asks for it when the adaptation is configured or telecommanded on
+    (:class:`fsw.core.adaptation.OnboardRqp`), not inside the frame of the first search slice."""
+    from scipy.optimize._slsqplib import slsqp
+
+    return slsqp
 
 
 @dataclass(frozen=True)
@@ -211,8 +221,9 @@ class RqpSearch:
         """The α rows whose J the solver needs next — one row for J, 2·dim(α) for the central
         differences of its gradient (see :func:`central_points`) — or None once the search is done.
         Answer with :meth:`provide`; a caller may take as long as it likes in between."""
+        slsqp = slsqp_core()  # a module attribute, not state: a checkpoint pickles the search
         while not self._need and not self.done:
-            _slsqp(self._state, self._fx, self._g, self._C, self._d, self._x, self._mult, self._xl, self._xu,
+            slsqp(self._state, self._fx, self._g, self._C, self._d, self._x, self._mult, self._xl, self._xu,
                    self._buffer, self._indices)
             mode = int(self._state["mode"])
             if mode == 1:

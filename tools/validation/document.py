@@ -761,6 +761,14 @@ def calibration_runs() -> int:
     return sum(p.seeds + p.holdout for p in map(load_plan, builtin_names()))
 
 
+def validation_runs() -> int:
+    """Runs the built-in validation campaigns fly (every cell times its seeds)."""
+    from tools.campaign.plan import expand
+    from tools.campaign.spec import load_campaign
+
+    return sum(len(expand(load_campaign(name)).tasks) for name in CAMPAIGNS)
+
+
 def render(sections: list[Section], *, generated: str, commands: list[str]) -> str:
     lines = [
         "# navbank validation report",
@@ -772,8 +780,9 @@ def render(sections: list[Section], *, generated: str, commands: list[str]) -> s
         "tuned to any table.",
         "",
         f"Regenerate everything (on 2 cores about {calibration_runs() / CAMPAIGN_RUNS_PER_H:.1f} h for the detector "
-        f"calibrations, {calibration_runs():,} nominal runs, and about 35 min for the validation campaigns and this "
-        "report; `--workers` and `--executor dask` spread them):",
+        f"calibrations, {calibration_runs():,} nominal runs, and about {validation_runs() / CAMPAIGN_RUNS_PER_H:.1f} h "
+        f"for the validation campaigns, {validation_runs():,} runs, and this report; `--workers` and "
+        "`--executor dask` spread them):",
         "",
         "```bash",
         *commands,
