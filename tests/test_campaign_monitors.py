@@ -122,7 +122,7 @@ def test_detection_matrix_carries_three_detectors_on_one_run(tmp_path):
     for net in ("chi2", "chi2-two-sided", "magill"):
         (tmp_path / "detectors" / f"detector-{net}.yaml").write_text(config_to_yaml(_calibration(net)))
     dm = expand(load_campaign_text(text, "detection-matrix.yaml", tmp_path))
-    assert {t.cell.fault for t in dm.tasks} == set(FAULT_PRESETS) and len(dm.tasks) == len(FAULT_PRESETS) * 20
+    assert {t.cell.fault for t in dm.tasks} == set(FAULT_PRESETS) and len(dm.tasks) == len(FAULT_PRESETS) * 100
     t = dm.tasks[0]
     assert {t.cell.variant for t in dm.tasks} == {"all-networks"}
     assert t.detector_network == "chi2" and t.detector_calibrated

@@ -127,7 +127,7 @@ def test_builtin_campaigns_expand():
         assert {t.cell.fault for t in dm.tasks} == set(FAULT_PRESETS)
         assert {t.detector_network for t in dm.tasks} == {"chi2"}
         assert all(sorted(t.monitors) == ["chi2-two-sided", "magill"] for t in dm.tasks)
-        assert len(dm.tasks) == len(FAULT_PRESETS) * 20
+        assert len(dm.tasks) == len(FAULT_PRESETS) * 100  # 100 seeds per cell
     else:  # the calibrations are not generated yet: a one-line error naming the missing file
         with pytest.raises(ConfigError, match="detectors/detector-chi2.yaml"):
             expand(load_campaign("detection-matrix"))
