@@ -20,7 +20,7 @@ def test_scenario_and_campaign_are_what_they_claim():
     assert [g.network for g in scen.fsw.gating] == ["chi2", "chi2-two-sided"]
     assert scen.sim.faults == () and scen.fsw.detector.calibration is None
     plan = expand(load_campaign("overinflated"))
-    assert len(plan.tasks) == 10 and {t.seed for t in plan.tasks} == set(range(1, 11))
+    assert len(plan.tasks) == 100 and {t.seed for t in plan.tasks} == set(range(1, 101))
     assert all(t.fault_class == "none" and not t.detector_calibrated for t in plan.tasks)
     assert all(t.extract_weights == ("chi2", "chi2-two-sided") for t in plan.tasks)
 
