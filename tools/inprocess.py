@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterator
 
 from fsw.core import FswCore, stamp
+from fsw.core.pipeline import no_gc_pauses
 from fsw.interface import messages as m, topics
 from sim.stream import SimRun, generate
 from tools.scenario import ScenarioConfig, resolve
@@ -65,11 +66,10 @@ def collector_held() -> Iterator[None]:
     if not gc.isenabled():
         yield
         return
-    gc.disable()
     try:
-        yield
+        with no_gc_pauses():
+            yield
     finally:
-        gc.enable()
         gc.collect(0)
 
 
