@@ -23,8 +23,10 @@ for all epochs of a measurement in one batched product (:meth:`Environment.state
 
 from __future__ import annotations
 
+import copy
 from collections import OrderedDict
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 
@@ -54,6 +56,7 @@ class Environment:
         self._span = table_span_days * SECONDS_PER_DAY
         self._step = table_step_s
         self._table: EphemerisTable | None = None
+        self._table_span: tuple[float, float] | None = None  # what the table was built over
         # replaced, with the table, before any lookup
         self._hermite: np.ndarray = np.empty((0, 4, 15))
         self._stations: OrderedDict[tuple[str, float], tuple[np.ndarray, ...]] = OrderedDict()
@@ -61,24 +64,63 @@ class Environment:
         self._station_names: dict[str, str] = {}  # spellings seen -> canonical name
         self._last_node: tuple[float, str, np.ndarray] = (np.nan, "", np.empty((4, 3)))
 
+    # A checkpoint (fsw.core.checkpoint) pickles the core every few hundred measurements. The
+    # ephemeris table and its Hermite nodes are ~2 MB of it, and a pure function of the span
+    # they were built over: the checkpoint carries the span, and a restore rebuilds the very
+    # same table from it. The station cache (up to 256 nodes) travels as one (K, 4, 3) array
+    # with its keys in cache order, not as a thousand small arrays.
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state["_table"] = None
+        state["_hermite"] = None
+        keys = list(self._stations)
+        state["_stations"] = keys
+        state["_station_arrays"] = (np.stack([self._station_arrays[k] for k in keys]) if keys
+                                    else np.empty((0, 4, 3)))
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        keys, nodes = state.pop("_stations"), state.pop("_station_arrays")
+        self.__dict__.update(state)
+        self._stations = OrderedDict()
+        self._station_arrays = {}
+        for key, node in zip(keys, nodes):
+            self._stations[key] = (node[0], node[1], node[2], node[3])
+            self._station_arrays[key] = node
+        self._hermite = np.empty((0, 4, 15))
+        if self._table_span is not None:
+            self._build_table(*self._table_span)
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> Environment:
+        # a copy in memory (the warm-up's) copies the table rather than rebuilding it
+        new = object.__new__(type(self))
+        memo[id(self)] = new
+        new.__dict__.update(copy.deepcopy(self.__dict__, memo))
+        return new
+
     # -- planets --------------------------------------------------------------------------------
     def _table_for(self, t_lo: float, t_hi: float) -> EphemerisTable:
         tab = self._table
         if tab is None or t_lo < tab.t_first + 3 * self._step or t_hi > tab.t_last - 3 * self._step:
-            eph = self._eph if self._eph is not None else default_ephemeris()
             start = t_lo - 2.0 * SECONDS_PER_DAY
-            tab = EphemerisTable(eph, start, max(t_hi, start + self._span), TABLE_BODIES, "ssb", self._step)
-            self._table = tab
-            # the table's cubic Hermite interpolant per grid interval i, as the four node
-            # vectors [p_i, h v_i, p_i+1, h v_i+1] (rows of 5 bodies × 3), for batched lookups
-            n = int(round((tab.t_last - tab.t_first) / tab.step)) + 1
-            p, v = tab.states(tab.t_first + tab.step * np.arange(n))
-            nodes = np.empty((n - 1, 4, 15))
-            nodes[:, 0] = p[:-1].reshape(n - 1, 15)
-            nodes[:, 1] = tab.step * v[:-1].reshape(n - 1, 15)
-            nodes[:, 2] = p[1:].reshape(n - 1, 15)
-            nodes[:, 3] = tab.step * v[1:].reshape(n - 1, 15)
-            self._hermite = nodes
+            tab = self._build_table(start, max(t_hi, start + self._span))
+        return tab
+
+    def _build_table(self, start: float, end: float) -> EphemerisTable:
+        eph = self._eph if self._eph is not None else default_ephemeris()
+        tab = EphemerisTable(eph, start, end, TABLE_BODIES, "ssb", self._step)
+        self._table = tab
+        self._table_span = (start, end)
+        # the table's cubic Hermite interpolant per grid interval i, as the four node
+        # vectors [p_i, h v_i, p_i+1, h v_i+1] (rows of 5 bodies × 3), for batched lookups
+        n = int(round((tab.t_last - tab.t_first) / tab.step)) + 1
+        p, v = tab.states(tab.t_first + tab.step * np.arange(n))
+        nodes = np.empty((n - 1, 4, 15))
+        nodes[:, 0] = p[:-1].reshape(n - 1, 15)
+        nodes[:, 1] = tab.step * v[:-1].reshape(n - 1, 15)
+        nodes[:, 2] = p[1:].reshape(n - 1, 15)
+        nodes[:, 3] = tab.step * v[1:].reshape(n - 1, 15)
+        self._hermite = nodes
         return tab
 
     def table_nodes(self, t_lo: float, t_hi: float) -> tuple[np.ndarray, np.ndarray, float, float]:
