@@ -4,8 +4,9 @@ Subscribes to measurements and the simulator's status only — never to truth: t
 names exactly those two topics, and any sample on another topic is refused and counted. Raw
 measurement payloads go to :class:`fsw.core.FswCore`, which decodes them strictly (malformed ones
 are counted, never fatal), re-orders within a window, and runs the bank, gating and detector
-under the frame executive. Telemetry is published as it is produced; telecommands are served
-between measurements on this thread (no locking of the core needed).
+under the frame executive. Telemetry is published in runs, once no measurement is waiting
+(:mod:`fsw.transport.outbox`); telecommands are served between measurements on this thread (no
+locking of the core needed).
 
 The run ends when the simulator's end-of-run status has arrived and every announced measurement
 has been taken: the core drains its backlog, publishes its end-of-run status, and waits for the
@@ -53,9 +54,11 @@ def run_fsw(
     that long each time."""
     with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=handle_signals) as life:
         signer = None if life.authenticator is None else life.authenticator.file_tag
-        restored = None if resume is None else checkpoint.read(resume, config, run_id, life.put, signer)
+        # telemetry goes out in runs of puts, not one by one (see fsw.transport.outbox)
+        outbox = tp.Outbox(life.put)
+        restored = None if resume is None else checkpoint.read(resume, config, run_id, outbox.put, signer)
         if restored is None:
-            core = FswCore(config, life.put, run_id=run_id)
+            core = FswCore(config, outbox.put, run_id=run_id)
         else:
             core = restored.core
             life.restore_publishers(restored.published)
@@ -95,6 +98,7 @@ def run_fsw(
         def save() -> None:
             nonlocal served_at_save
             served_at_save = server.served
+            outbox.flush()  # the checkpoint records the publishers' counts: all of it published
             if checkpoint_path is None:
                 return
             try:
@@ -110,39 +114,52 @@ def run_fsw(
             save()  # a restart before the first cadence point goes on from the start, not from nothing
         last_data = time.monotonic()
         next_progress = 0.0
-        while True:
-            got = sub.recv(timeout=0.02)
-            if life.poll_commands() and server.served != served_at_save:
-                # a served command changes state: keep it (and its nonce) before anything else
-                save()
-            now = time.monotonic()
-            if got is not None:
-                last_data = now
-                if got.topic == topics.SIM_MEASUREMENTS:
-                    core.ingest_payload(got.payload)
-                    if schedule.due(core.taken, core.t_last):
-                        save()
-                elif got.topic != topics.SIM_STATUS:
-                    refused += 1  # truth or anything else is never let in
-            elif sub.finished([producer]):
-                save()  # the producer may be gone by the time a restart would ask it to resend
-                break
-            if life.should_stop():
-                # what was delivered but not yet taken is not processed either: counted, with the
-                # backlog and what the intake holds, in the status that says how far it got
-                unread = sum(1 for g in sub.drain_available() if g.topic == topics.SIM_MEASUREMENTS)
-                at_stop.update(unread=unread, unprocessed=unread + core.executive.pending_jobs + core.guard.pending)
-                core.stopped(f"stopped ({life.stop_reason()})")
-                raise KeyboardInterrupt
-            if idle_timeout_s is not None and now - last_data > idle_timeout_s:
-                raise tp.TransportError(f"no data from {producer} for {idle_timeout_s:g} s")
-            if progress is not None and now >= next_progress:
-                next_progress = now + 2.0
-                progress(_progress_line(core))
+        try:
+            while True:
+                # the outbox is flushed once no measurement is waiting (or holds its limit)
+                got = sub.recv(timeout=0.0 if outbox.pending else 0.02)
+                if got is None and outbox.pending:
+                    outbox.flush()
+                    got = sub.recv(timeout=0.02)
+                if life.poll_commands() and server.served != served_at_save:
+                    # a served command changes state: keep it (and its nonce) before anything else
+                    save()
+                now = time.monotonic()
+                if got is not None:
+                    last_data = now
+                    if got.topic == topics.SIM_MEASUREMENTS:
+                        core.ingest_payload(got.payload)
+                        if schedule.due(core.taken, core.t_last):
+                            save()
+                    elif got.topic != topics.SIM_STATUS:
+                        refused += 1  # truth or anything else is never let in
+                elif sub.finished([producer]):
+                    save()  # the producer may be gone by the time a restart would ask it to resend
+                    break
+                if life.should_stop():
+                    # what was delivered but not yet taken is not processed either: counted, with the
+                    # backlog and what the intake holds, in the status that says how far it got
+                    unread = sum(1 for g in sub.drain_available() if g.topic == topics.SIM_MEASUREMENTS)
+                    at_stop.update(unread=unread, unprocessed=unread + core.executive.pending_jobs + core.guard.pending)
+                    core.stopped(f"stopped ({life.stop_reason()})")
+                    raise KeyboardInterrupt  # the stop status goes out with the rest (below)
+                if idle_timeout_s is not None and now - last_data > idle_timeout_s:
+                    raise tp.TransportError(f"no data from {producer} for {idle_timeout_s:g} s")
+                if progress is not None and now >= next_progress:
+                    next_progress = now + 2.0
+                    progress(_progress_line(core))
+        except BaseException:
+            # whatever ends the process early, what the core emitted still goes out if it can
+            try:
+                outbox.flush()
+            except Exception:
+                pass
+            raise
 
         # the core publishes its end-of-run status, whose per-topic counts let the logger
         # confirm it has everything
         end = core.finish()
+        outbox.flush()
         counts = dict(end.counts)
 
         life.confirm_end(end, consumers, timeout_s=30.0)

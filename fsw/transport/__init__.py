@@ -11,6 +11,7 @@ The measured Zenoh pitfalls (NOTES-zenoh-mcap.md) are handled once, each in the 
   that count gaps and serve a progress queryable;
 * :mod:`~fsw.transport.flow` — readiness, credit windows and the end-of-stream drain;
 * :mod:`~fsw.transport.commands` — the telecommand queryable and its sender;
+* :mod:`~fsw.transport.outbox` — telemetry held over a burst of input and published back to back;
 * :mod:`~fsw.transport.lifecycle` — the steps every process goes through, in their order.
 
 ``from fsw import transport as tp`` then ``tp.Publisher(...)``: the public names are here.
@@ -21,6 +22,7 @@ from fsw.transport.credentials import CredentialsError, RunCredentials, load_cre
 from fsw.transport.flow import (COMPLETE, INCARNATION, PROGRESS, RESUMED_FROM, ROLES, ConsumerRestarted, CreditWindow,
                                 drain, query_progress, wait_for_consumers)
 from fsw.transport.lifecycle import REPLY_LINGER_S, ProcessLifecycle, StopFlag
+from fsw.transport.outbox import Outbox
 from fsw.transport.pubsub import Publisher, Received, Subscriber, TopicPublisher, end_of_run_counts
 from fsw.transport.session import TransportConfig, TransportError, free_tcp_ports, mesh_configs, open_session, zenoh_config
 from fsw.transport.wire import sequence_attachment
@@ -38,6 +40,7 @@ __all__ = [
     "CredentialsError",
     "RunCredentials",
     "load_credentials",
+    "Outbox",
     "ProcessLifecycle",
     "StopFlag",
     "TopicPublisher",

@@ -1,0 +1,60 @@
+"""Telemetry held over a burst of input and published back to back.
+
+A lone put costs the publishing thread far more than one of a run of puts. Measured on a TLS
+mesh with access control (the ``navbank run`` links): 1.5 µs of CPU per put back to back, 13.8 µs
+per put after ~0.4 ms of other Python work — each lone put wakes Zenoh's transmit thread and runs
+its code path cold. Inside the FSW process the core's ~66k puts of a default run cost 7.6 µs
+each, published one at a time as the core emitted them.
+
+So the FSW process hands its core an :class:`Outbox`: what the core emits is queued while
+measurements are waiting to be taken, and published, in the order emitted, when the input runs
+dry, when ``limit`` messages are held, and before anything that must find them published (a
+checkpoint records every publisher's count, the end-of-run confirmation counts what arrived, a
+stop). Nothing is dropped or reordered, and with the input idle a message waits no longer than
+it did; under a burst the ground hears of it at most ``limit`` messages late.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Callable
+
+
+class Outbox:
+    """Queue ``(topic, message)`` pairs for ``put``; :meth:`flush` publishes them in order."""
+
+    def __init__(self, put: Callable[[str, object], None], limit: int = 256):
+        if limit < 1:
+            raise ValueError("an outbox holds at least one message")
+        self._put = put
+        self.limit = limit
+        self._held: deque[tuple[str, object]] = deque()
+        self.flushes = 0
+
+    def put(self, topic: str, msg: object) -> None:
+        """Hold ``msg`` for ``topic``; publishes everything held once ``limit`` messages are."""
+        self._held.append((topic, msg))
+        if len(self._held) >= self.limit:
+            self.flush()
+
+    def flush(self) -> int:
+        """Publish everything held, oldest first; returns how many. A put that raises leaves it
+        and the messages after it held (and the exception goes on to the caller)."""
+        held, put = self._held, self._put
+        n = 0
+        while held:
+            topic, msg = held[0]
+            put(topic, msg)
+            held.popleft()
+            n += 1
+        if n:
+            self.flushes += 1
+        return n
+
+    @property
+    def pending(self) -> int:
+        """Messages held, not yet published."""
+        return len(self._held)
+
+
+__all__ = ["Outbox"]

@@ -1,0 +1,51 @@
+"""The FSW's outbox: telemetry held over a burst, published in order, nothing lost."""
+
+from __future__ import annotations
+
+import pytest
+
+from fsw.transport import Outbox
+
+
+def test_messages_go_out_in_the_order_emitted_when_flushed():
+    out: list[tuple[str, object]] = []
+    box = Outbox(lambda t, m: out.append((t, m)), limit=10)
+    for i in range(7):
+        box.put(f"fsw/{i % 3}", i)
+    assert out == [] and box.pending == 7
+    assert box.flush() == 7
+    assert out == [(f"fsw/{i % 3}", i) for i in range(7)]
+    assert box.pending == 0 and box.flush() == 0 and box.flushes == 1
+
+
+def test_the_limit_bounds_what_is_held():
+    out: list[tuple[str, object]] = []
+    box = Outbox(lambda t, m: out.append((t, m)), limit=4)
+    for i in range(10):
+        box.put("fsw/budget", i)
+        assert box.pending < 4
+    assert [m for _, m in out] == list(range(8)) and box.pending == 2
+
+
+def test_a_put_that_fails_keeps_it_and_what_follows_held():
+    out: list[object] = []
+    fail = {"once": True}
+
+    def put(topic: str, msg: object) -> None:
+        if msg == 2 and fail.pop("once", False):
+            raise RuntimeError("link closed")
+        out.append(msg)
+
+    box = Outbox(put, limit=100)
+    for i in range(5):
+        box.put("fsw/weights/magill", i)
+    with pytest.raises(RuntimeError):
+        box.flush()
+    assert out == [0, 1] and box.pending == 3
+    box.flush()
+    assert out == [0, 1, 2, 3, 4]
+
+
+def test_an_outbox_holds_at_least_one_message():
+    with pytest.raises(ValueError):
+        Outbox(lambda t, m: None, limit=0)
