@@ -56,7 +56,11 @@ def test_campaign_on_a_real_dask_scheduler_equals_the_local_executor(tmp_path, s
             # the preload keeps dask's statistical profiler off the workers (tools.campaign.warm)
             profiling = client.run(lambda dask_worker: sorted(k for k in dask_worker.periodic_callbacks
                                                               if k.startswith("profile")))
+            # and wakes their event loops less often (dask's defaults: tick 20 ms, monitors 500/100 ms)
+            periods = client.run(lambda dask_worker: {k: dask_worker.periodic_callbacks[k].callback_time
+                                                      for k in ("tick", "monitor", "memory_monitor")})
         assert len(profiling) == 2 and all(v == [] for v in profiling.values()), profiling
+        assert all(p == {"tick": 1000.0, "monitor": 5000.0, "memory_monitor": 1000.0} for p in periods.values()), periods
         outcome = run_campaign(plan, tmp_path / "dask", lambda: DaskExecutor(2, cluster.address), quiet=True)
         procs = cluster.processes()
     # torn down: every process the cluster started has exited

@@ -75,3 +75,24 @@ def test_local_cluster_workers_keep_the_default_allocator():
         executor.close()
     assert list(seen.values()) == [None]
     assert list(threads.values()) == ["1"]  # the rest of dask's worker environment is kept
+
+
+@pytest.mark.slow
+def test_local_cluster_event_loops_wake_less_often():
+    """Every wake of a worker's event loop takes the GIL from the run: our LocalCluster's
+    scheduler, nannies and workers get longer periods than dask's defaults (tick 20 ms, system
+    monitor 500 ms, memory monitor 100 ms)."""
+    executor = DaskExecutor(1)
+    try:
+        def periods(server: object) -> dict[str, float]:
+            pcs = server.periodic_callbacks  # type: ignore[attr-defined]
+            return {k: pcs[k].callback_time for k in ("tick", "monitor", "memory_monitor") if k in pcs}
+
+        workers = executor.client.run(lambda dask_worker: periods(dask_worker))
+        scheduler = executor.client.run_on_scheduler(lambda dask_scheduler: periods(dask_scheduler))
+        nannies = [periods(n) for n in executor.cluster.workers.values()]  # type: ignore[union-attr]
+    finally:
+        executor.close()
+    assert list(workers.values()) == [{"tick": 1000, "monitor": 5000, "memory_monitor": 1000}]
+    assert scheduler == {"tick": 1000, "monitor": 5000}
+    assert nannies == [{"tick": 1000, "monitor": 5000, "memory_monitor": 1000}]

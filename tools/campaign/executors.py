@@ -26,7 +26,7 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
 from tools.campaign.task import RunTask
-from tools.campaign.warm import init_worker
+from tools.campaign.warm import init_worker, quiet_settings
 from tools.campaign.worker import RunOutcome, execute
 
 #: (handle, result or None, exception or None)
@@ -138,7 +138,8 @@ class DaskExecutor:
         else:
             import dask
 
-            with dask.config.set({NANNY_ENV: nanny_environ()}):
+            # the scheduler, the nannies and the workers wake their event loops less often
+            with dask.config.set({NANNY_ENV: nanny_environ(), **quiet_settings()}):
                 self.cluster = distributed.LocalCluster(
                     n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, host="127.0.0.1",
                     dashboard_address=None, silence_logs=logging.ERROR, preload=["tools.campaign.warm"],

@@ -10,7 +10,8 @@ process for the latter, so that no run's first frames are charged for it.
 Hooks: the local pool's initializer is :func:`init_worker`; dask calls :func:`dask_setup` of a
 preloaded module (``dask worker --preload tools.campaign.warm``; the ``LocalCluster`` of
 :mod:`tools.campaign.executors` preloads it too), which also keeps dask's statistical profiler
-off the worker (:func:`stop_profiler`). Importing the module alone flies nothing.
+off the worker (:func:`stop_profiler`) and wakes its event loop less often
+(:func:`quieten_event_loop`). Importing the module alone flies nothing.
 """
 
 from __future__ import annotations
@@ -59,11 +60,47 @@ def stop_profiler(worker: Any) -> None:
             callback.stop()
 
 
+#: dask's event-loop callbacks that a campaign needs less often: callback name -> (the dask
+#: setting of its period, the period in ms it gets). The check that the loop is not blocked (20 ms
+#: by default; it warns after 3 s of blocking, which a 1 s period still sees), the system monitor
+#: that feeds the dashboard's CPU and memory plots (500 ms), and the memory monitor that spills,
+#: pauses or (a nanny's) restarts a worker near its memory limit (100 ms; a run's memory grows
+#: by tens of MB per second at most).
+QUIET_CALLBACKS_MS: dict[str, tuple[str, float]] = {
+    "tick": ("distributed.admin.tick.interval", 1000.0),
+    "monitor": ("distributed.admin.system-monitor.interval", 5000.0),
+    "memory_monitor": ("distributed.worker.memory.monitor-interval", 1000.0),
+}
+
+
+def quiet_settings() -> dict[str, str]:
+    """The dask settings of :data:`QUIET_CALLBACKS_MS`, for a cluster started here (its scheduler,
+    nannies and workers all take them)."""
+    return {key: f"{period_ms:g}ms" for key, period_ms in QUIET_CALLBACKS_MS.values()}
+
+
+def quieten_event_loop(worker: Any) -> None:
+    """Wake a worker's event loop less often while a task runs (:data:`QUIET_CALLBACKS_MS`), on a
+    worker started elsewhere (``dask worker --preload tools.campaign.warm``) as on ours.
+
+    Every wake takes the GIL from the task thread (a run is pure Python) and costs it a thread
+    switch and cold caches; a LocalCluster worker's event loop woke ~140 times a second with the
+    defaults. 45-day runs on a 2-worker LocalCluster, alternating, other load stopped: 4.70 s CPU
+    each at 24.3-24.6 runs/min with dask's defaults, 4.51 s at 25.9-26.2 runs/min with these
+    periods. Periods are only lengthened, never shortened (a worker configured quieter stays so)."""
+    for key, (_, period_ms) in QUIET_CALLBACKS_MS.items():
+        callback = worker.periodic_callbacks.get(key)
+        if callback is not None and callback.callback_time < period_ms:
+            callback.callback_time = period_ms
+
+
 def dask_setup(worker: Any) -> None:
-    """dask's preload hook: no statistical profiler, and the worker process warmed up once, at
-    its start."""
+    """dask's preload hook: no statistical profiler, a quieter event loop, and the worker process
+    warmed up once, at its start."""
     stop_profiler(worker)
+    quieten_event_loop(worker)
     warm_up()
 
 
-__all__ = ["init_worker", "dask_setup", "stop_profiler", "warm_up", "WARM_UP_DAYS", "PROFILER_CALLBACKS"]
+__all__ = ["init_worker", "dask_setup", "quiet_settings", "quieten_event_loop", "stop_profiler", "warm_up",
+           "WARM_UP_DAYS", "PROFILER_CALLBACKS", "QUIET_CALLBACKS_MS"]
