@@ -32,7 +32,13 @@ def test_joseph_kernel_matches_numpy_update(m, seed):
     x, P, H, R, residual, does, gate = _case(rng, N, n, m)
     x_out, P_out = np.empty((N, n)), np.empty((N, n, n))
     S, chi2, processed = np.empty((N, m, m)), np.empty(N), np.empty(N, dtype=bool)
-    joseph_update(x, P, H, R, residual, does, gate, x_out, P_out, S, chi2, processed)
+    # the kernel forms the residual y − h itself: hand it a prediction h that gives this one
+    y = rng.normal(size=m) * 1e3
+    h = y[None, :] - residual
+    res_out = np.empty((N, m))
+    joseph_update(x, P, H, R, y, h, does, gate, res_out, x_out, P_out, S, chi2, processed)
+    assert np.array_equal(res_out, y[None, :] - h)
+    residual = res_out
 
     Mt = kalman.augmented_joint(x, P, H, R, residual)
     PX, _, S_ref, chi2_ref, proc_ref = kalman.update(Mt, n, does, gate)

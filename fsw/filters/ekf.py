@@ -403,9 +403,15 @@ class EKFStack:
         (:mod:`fsw.kernels.joseph_update`), larger m :func:`kalman.update`: the same arithmetic."""
         N, n = self.x.shape
         m = H.shape[1]
-        residual = y[None, :] - h
         if m > 2:
-            return self._update_numpy(residual, H, R, does, gate)
+            return self._update_numpy(y[None, :] - h, H, R, does, gate)
+        if y.shape != (m,) or h.shape != (N, m):  # the kernel reads them without bounds checks
+            raise ValueError(f"measurement {y.shape} and predictions {h.shape} do not match H {H.shape}")
+        if not (y.dtype == np.float64 and y.flags.c_contiguous):
+            y = np.ascontiguousarray(y, dtype=float)
+        if not (h.dtype == np.float64 and h.flags.c_contiguous):
+            h = np.ascontiguousarray(h, dtype=float)
+        residual = np.empty((N, m))  # y − h, formed by the kernel
         x_new = np.empty((N, n))
         P_new = np.empty((N, n, n))
         S = np.empty((N, m, m))
@@ -413,8 +419,8 @@ class EKFStack:
         processed = np.empty(N, dtype=bool)
         P = self.P if self.P.flags.c_contiguous else np.ascontiguousarray(self.P)
         joseph_update(self.x, P, H if H.flags.c_contiguous else np.ascontiguousarray(H),
-                      R if R.flags.c_contiguous else np.ascontiguousarray(R), residual, does,
-                      self._no_gate if gate is None else gate, x_new, P_new, S, chi2, processed)
+                      R if R.flags.c_contiguous else np.ascontiguousarray(R), y, h, does,
+                      self._no_gate if gate is None else gate, residual, x_new, P_new, S, chi2, processed)
         # P⁺ carries only the rounding asymmetry of one update: the next propagation step
         # symmetrises it, so it never accumulates
         if self._any_adaptive:
