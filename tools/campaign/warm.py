@@ -66,7 +66,7 @@ def stop_profiler(worker: Any) -> None:
 #: that feeds the dashboard's CPU and memory plots (500 ms), and the memory monitor that spills,
 #: pauses or (a nanny's) restarts a worker near its memory limit (100 ms; a run's memory grows
 #: by tens of MB per second at most).
-QUIET_CALLBACKS_MS: dict[str, tuple[str, float]] = {
+QUIET_CALLBACKS: dict[str, tuple[str, float]] = {
     "tick": ("distributed.admin.tick.interval", 1000.0),
     "monitor": ("distributed.admin.system-monitor.interval", 5000.0),
     "memory_monitor": ("distributed.worker.memory.monitor-interval", 1000.0),
@@ -74,21 +74,22 @@ QUIET_CALLBACKS_MS: dict[str, tuple[str, float]] = {
 
 
 def quiet_settings() -> dict[str, str]:
-    """The dask settings of :data:`QUIET_CALLBACKS_MS`, for a cluster started here (its scheduler,
+    """The dask settings of :data:`QUIET_CALLBACKS`, for a cluster started here (its scheduler,
     nannies and workers all take them)."""
-    return {key: f"{period_ms:g}ms" for key, period_ms in QUIET_CALLBACKS_MS.values()}
+    return {key: f"{period_ms:g}ms" for key, period_ms in QUIET_CALLBACKS.values()}
 
 
 def quieten_event_loop(worker: Any) -> None:
-    """Wake a worker's event loop less often while a task runs (:data:`QUIET_CALLBACKS_MS`), on a
+    """Wake a worker's event loop less often while a task runs (:data:`QUIET_CALLBACKS`), on a
     worker started elsewhere (``dask worker --preload tools.campaign.warm``) as on ours.
 
     Every wake takes the GIL from the task thread (a run is pure Python) and costs it a thread
     switch and cold caches; a LocalCluster worker's event loop woke ~140 times a second with the
-    defaults. 45-day runs on a 2-worker LocalCluster, alternating, other load stopped: 4.70 s CPU
-    each at 24.3-24.6 runs/min with dask's defaults, 4.51 s at 25.9-26.2 runs/min with these
-    periods. Periods are only lengthened, never shortened (a worker configured quieter stays so)."""
-    for key, (_, period_ms) in QUIET_CALLBACKS_MS.items():
+    defaults. 45-day runs on a 2-worker LocalCluster, three each, alternating, other load
+    stopped: 4.33-4.72 s CPU each at 24.0-26.4 runs/min with dask's defaults, 4.32-4.39 s at
+    26.8-27.0 runs/min with these periods (and the same settings for the cluster, below). Periods
+    are only lengthened, never shortened (a worker configured quieter stays so)."""
+    for key, (_, period_ms) in QUIET_CALLBACKS.items():
         callback = worker.periodic_callbacks.get(key)
         if callback is not None and callback.callback_time < period_ms:
             callback.callback_time = period_ms
@@ -103,4 +104,4 @@ def dask_setup(worker: Any) -> None:
 
 
 __all__ = ["init_worker", "dask_setup", "quiet_settings", "quieten_event_loop", "stop_profiler", "warm_up",
-           "WARM_UP_DAYS", "PROFILER_CALLBACKS", "QUIET_CALLBACKS_MS"]
+           "WARM_UP_DAYS", "PROFILER_CALLBACKS", "QUIET_CALLBACKS"]
