@@ -2,8 +2,8 @@
 
 A lone put costs the publishing thread far more than one of a run of puts. Measured on a TLS
 mesh with access control (the ``navbank run`` links): 1.5 µs of CPU per put back to back, 13.8 µs
-per put after ~0.4 ms of other Python work — each lone put wakes Zenoh's transmit thread and runs
-its code path cold. Inside the FSW process the core's ~66k puts of a default run cost 7.6 µs
+per put after ~0.4 ms of other Python work (most likely because a lone put has to wake Zenoh's
+transmit thread and runs its code path with cold caches). Inside the FSW process the core's ~66k puts of a default run cost 7.6 µs
 each, published one at a time as the core emitted them.
 
 So the FSW process hands its core an :class:`Outbox`: what the core emits is queued while
