@@ -113,3 +113,21 @@ def test_station_velocity_is_smooth_through_a_leap_second():
     speed = np.linalg.norm(v, axis=1)
     assert np.ptp(speed) < 1e-9  # km/s
     assert abs(earth.ut1_rate(t[2])) < 1e-7
+
+
+def test_rotation_chain_of_many_epochs_is_that_of_each_epoch():
+    """The chain evaluates the epochs, their ±1 h precession-nutation neighbours and the UT1
+    slope's ±60 s lookups in one array: each epoch's result must be the one it gets alone."""
+    r = stations.station("DSS-43").itrs_at(np.zeros(1))[0]
+    t = utc_iso_to_tdb("2018-11-20T00:00:00") + 600.0 * np.arange(30) + 17.25
+    pos, vel, pole = earth.itrs_to_gcrs_state_and_pole(r, t)
+    for k in (0, 7, 29):
+        p1, v1, k1 = earth.itrs_to_gcrs_state_and_pole(r, t[k:k + 1])
+        assert np.array_equal(p1[0], pos[k]) and np.array_equal(v1[0], vel[k]) and np.array_equal(k1[0], pole[k])
+        ps, vs = earth.itrs_to_gcrs_state(r, float(t[k]))
+        assert ps.shape == (3,) and np.array_equal(ps, pos[k]) and np.array_equal(vs, vel[k])
+    # the UT1 slope is the central difference of the uploaded UT1-TAI, epoch by epoch
+    _, hi = earth._eop_and_ut1_tai(t + 60.0)
+    _, lo = earth._eop_and_ut1_tai(t - 60.0)
+    assert np.array_equal(earth.ut1_rate(t), (hi - lo) / 120.0)
+    assert np.ndim(earth.ut1_rate(float(t[3]))) == 0 and earth.ut1_rate(float(t[3])) == ((hi - lo) / 120.0)[3]

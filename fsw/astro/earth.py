@@ -48,22 +48,32 @@ def _uploaded_eop() -> tuple[np.ndarray, np.ndarray, list[tuple[float, float]]]:
     return u, cols, spans
 
 
+@lru_cache(maxsize=1)
+def _eop_spans() -> tuple[tuple[float, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...]:
+    """Per uploaded span: (first, last, sample epochs, UT1-TAI, x, y) — what every lookup
+    interpolates in, taken out of the table once rather than at each lookup."""
+    u, cols, spans = _uploaded_eop()
+    tai_rows = np.asarray(naive_utc_to_tai(u), dtype=float) - u  # TAI-UTC of each sample
+    out = []
+    for lo, hi in spans:
+        sel = (u >= lo) & (u <= hi)
+        out.append((lo, hi, u[sel], cols[sel, 0] - tai_rows[sel], cols[sel, 1], cols[sel, 2]))
+    return tuple(out)
+
+
 def _eop_and_ut1_tai(t_tdb) -> tuple[np.ndarray, np.ndarray]:
     """([UT1-UTC, x, y] (N, 3), UT1-TAI (N,)) at t_tdb; UT1-TAI is NaN outside the uploaded spans."""
     u_q = np.atleast_1d(np.asarray(tdb_to_naive_utc(t_tdb), dtype=float))
-    u, cols, spans = _uploaded_eop()
-    tai_rows = np.asarray(naive_utc_to_tai(u), dtype=float) - u  # TAI-UTC of each sample
     dat_q = np.asarray(naive_utc_to_tai(u_q), dtype=float) - u_q
     out = np.zeros((u_q.size, 3))
     ut1_tai = np.full(u_q.size, np.nan)
-    for lo, hi in spans:
+    for lo, hi, u, ut1_tai_rows, x_rows, y_rows in _eop_spans():
         inside = (u_q >= lo) & (u_q <= hi)
         if inside.any():
-            sel = (u >= lo) & (u <= hi)
-            ut1_tai[inside] = np.interp(u_q[inside], u[sel], cols[sel, 0] - tai_rows[sel])
+            ut1_tai[inside] = np.interp(u_q[inside], u, ut1_tai_rows)
             out[inside, 0] = ut1_tai[inside] + dat_q[inside]
-            out[inside, 1] = np.interp(u_q[inside], u[sel], cols[sel, 1])
-            out[inside, 2] = np.interp(u_q[inside], u[sel], cols[sel, 2])
+            out[inside, 1] = np.interp(u_q[inside], u, x_rows)
+            out[inside, 2] = np.interp(u_q[inside], u, y_rows)
     return out, ut1_tai
 
 
@@ -78,12 +88,26 @@ def uploaded_eop(t_tdb) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def ut1_rate(t_tdb) -> np.ndarray:
     """d(UT1-TAI)/dt [s/s] of the uploaded table (0 outside it): the slope, not smeared by a leap second."""
-    dh = 60.0
     t = np.asarray(t_tdb, dtype=float)
-    _, hi = _eop_and_ut1_tai(t + dh)
-    _, lo = _eop_and_ut1_tai(t - dh)
-    rate = (hi - lo) / (2 * dh)
+    return _ut1_rate_from(_eop_and_ut1_tai(np.concatenate(_rate_epochs(t)))[1], t)
+
+
+#: Half-width of the central difference :func:`ut1_rate` takes [s].
+_UT1_RATE_DH = 60.0
+
+
+def _rate_epochs(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The epochs t + dh and t − dh :func:`ut1_rate` differences, flattened."""
+    flat = t.reshape(-1)
+    return flat + _UT1_RATE_DH, flat - _UT1_RATE_DH
+
+
+def _ut1_rate_from(ut1_tai: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """:func:`ut1_rate` at t from UT1-TAI at the epochs of :func:`_rate_epochs` (in that order)."""
+    n = ut1_tai.size // 2
+    rate = (ut1_tai[:n] - ut1_tai[n:]) / (2 * _UT1_RATE_DH)
     return np.where(np.isfinite(rate), rate, 0.0).reshape(np.shape(t))
+
 
 _UAS = math.pi / (180.0 * 3600.0 * 1e6)  # microarcsecond in rad
 _AS = math.pi / (180.0 * 3600.0)
@@ -184,7 +208,16 @@ def itrs_to_gcrs_state_and_pole(r_itrs_km, t_tdb) -> tuple[np.ndarray, np.ndarra
 def _itrs_to_gcrs(r_itrs_km, t_tdb, dut1_s: float | None,
                   pole: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     t = np.asarray(t_tdb, dtype=float)
-    eop = _eop_and_ut1_tai(t)[0] if dut1_s is None else None  # the pole and UT1 of one lookup
+    flat = t.reshape(-1)
+    n = flat.size
+    eop: np.ndarray | None = None
+    rate = np.zeros(t.shape)
+    if dut1_s is None:
+        # the pole, UT1 and UT1's slope of one lookup: the epochs and those ut1_rate differences,
+        # in one array (every step of the lookup is elementwise: the values are the separate
+        # lookups' to the bit)
+        both, ut1_tai = _eop_and_ut1_tai(np.concatenate((flat, *_rate_epochs(t))))
+        eop, rate = both[:n], _ut1_rate_from(ut1_tai[n:], t)
     W = _polar_motion(t, dut1_s, eop)
     r = np.matvec(W, np.asarray(r_itrs_km, dtype=float))
     theta = _era(t, dut1_s, eop)
@@ -197,13 +230,14 @@ def _itrs_to_gcrs(r_itrs_km, t_tdb, dut1_s: float | None,
     dR[..., 1, 1] = -s
     omega = 2.0 * np.pi * ERA_RATE_CYCLES_PER_UT1_DAY / SECONDS_PER_DAY
     if dut1_s is None:  # UT1 runs slow by the length-of-day excess (~1e-8): the uploaded slope
-        omega_t = omega * (1.0 + ut1_rate(t))
-        dR *= omega_t[..., None, None]
+        dR *= (omega * (1.0 + rate))[..., None, None]
     else:
         dR *= omega
     h = 3600.0  # Q varies over >= 5.5 days; a central difference over +-1 h is exact enough
-    Q = cirs_to_gcrs_matrix(t)
-    dQ = (cirs_to_gcrs_matrix(t + h) - cirs_to_gcrs_matrix(t - h)) / (2 * h)
+    # Q at t, t + h and t − h from one (elementwise) evaluation of the precession-nutation model
+    Qs = cirs_to_gcrs_matrix(np.concatenate((flat, flat + h, flat - h)))
+    Q, Q_hi, Q_lo = (Qs[k * n:(k + 1) * n].reshape(t.shape + (3, 3)) for k in range(3))
+    dQ = (Q_hi - Q_lo) / (2 * h)
     pos = ((Q @ R) @ r[..., None])[..., 0]
     vel = ((Q @ dR + dQ @ R) @ r[..., None])[..., 0]
     # the same product as itrs_to_gcrs_matrix, of the same factors
