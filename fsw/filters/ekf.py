@@ -100,6 +100,16 @@ class DopplerWork:
         self.uplinks = UplinkWork(2, N)
 
 
+class RangeWork:
+    """Arrays a range prediction fills for every measurement (read before the next one): the
+    filters' [r, v] (1, N, 6) at the reception epoch, that epoch and the light-time solution."""
+
+    def __init__(self, N: int):
+        self.z = np.empty((1, N, 6))
+        self.tt = np.empty(1)
+        self.uplinks = UplinkWork(1, N)
+
+
 class EKFStack:
     """N extended Kalman filters on a common union layout, propagated and updated together."""
 
@@ -223,6 +233,7 @@ class EKFStack:
         self._any_adaptive = any(aq is not None for aq in self.adaptive_q)
         self._no_gate = np.full(N, np.inf)
         self.doppler_work = DopplerWork(N, nq)
+        self.range_work = RangeWork(N)
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:

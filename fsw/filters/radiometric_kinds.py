@@ -21,7 +21,7 @@ from fsw.interface import kinds
 from fsw.interface.messages import Measurement
 from fsw.models.environment import Environment
 from fsw.kernels import on_first_call
-from fsw.models.radiometric import solve_uplinks, uplink
+from fsw.models.radiometric import solve_uplinks
 
 doppler_prediction = on_first_call(globals(), "doppler_prediction", "fsw.kernels.doppler")
 
@@ -30,18 +30,22 @@ if TYPE_CHECKING:
 
 
 def predict_range(stack: EKFStack, station: str, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """h (N, 1) and H (N, 1, n) of one-way range ρ = ρ_g + c δ (+ range bias) for states x (N, n)."""
+    """h (N, 1) and H (N, 1, n) of one-way range ρ = ρ_g + c δ (+ range bias) for states x (N, n)
+    (geometry and light time: :func:`fsw.models.radiometric.solve_uplinks`)."""
     L = stack.layout
     clock = stack.clock_columns
-    delta = stack.clock_state(x, 0)
-    g = uplink(stack.env, station, t, x[:, 0:3], x[:, 3:6], delta)
+    delta = np.ascontiguousarray(stack.clock_state(x, 0))
+    w = stack.range_work
+    w.z[0] = x[:, 0:6]
+    w.tt[0] = t
+    rho, ku, d_rho_d_v, d_rho_d_delta = solve_uplinks(stack.env, station, w.tt, w.z, delta, work=w.uplinks)
     N = x.shape[0]
     H = np.zeros((N, 1, L.n))
-    H[:, 0, 0:3] = g.d_rho_d_r
-    H[:, 0, 3:6] = g.d_rho_d_v
-    h = g.rho + C_KM_S * delta
+    H[:, 0, 0:3] = ku[0]
+    H[:, 0, 3:6] = d_rho_d_v[0]
+    h = rho[0] + C_KM_S * delta
     if clock is not None:
-        H[:, 0, clock[0]] = C_KM_S + g.d_rho_d_delta
+        H[:, 0, clock[0]] = C_KM_S + d_rho_d_delta[0]
     if L.has("range_bias"):
         h = h + x[:, L.slices["range_bias"].start]
         H[:, 0, L.slices["range_bias"].start] = 1.0
