@@ -47,3 +47,21 @@ def test_bad_input():
         fr.unit([0, 0, 0])
     with pytest.raises(fr.FrameError):
         fr.matrix_to_quat(np.diag([1.0, 1.0, -1.0]))
+
+
+def test_one_quaternion_is_the_batched_form_to_the_bit():
+    """One attitude (an optical measurement's) takes a Python-float path; it must give what the
+    numpy form of a batch gives for the same quaternion, including unnormalised ones."""
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=(2000, 4)) * 10.0 ** rng.uniform(-4, 4, size=(2000, 1))
+    q[::9, 2] = 0.0
+    q[::13, 1] = -0.0
+    batched = fr.quat_to_matrix(q)
+    for k in range(len(q)):
+        one = fr.quat_to_matrix(q[k])
+        assert one.shape == (3, 3)
+        assert np.array_equal(one, batched[k]) and np.array_equal(np.signbit(one), np.signbit(batched[k]))
+    assert np.array_equal(fr.quat_to_matrix([0.0, 0.0, 0.0, 2.0]), np.diag([-1.0, -1.0, 1.0]))
+    for bad in ([0.0, 0.0, 0.0, 0.0], [1.0, np.nan, 0.0, 0.0], [np.inf, 0.0, 0.0, 0.0]):
+        with pytest.raises(fr.FrameError):
+            fr.quat_to_matrix(bad)

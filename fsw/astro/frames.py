@@ -10,6 +10,8 @@ Conventions
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -59,6 +61,9 @@ def _as_quat(q) -> np.ndarray:
 
 def quat_to_matrix(q) -> np.ndarray:
     """Active rotation matrix of a unit quaternion [w, x, y, z] (normalised first); (..., 3, 3)."""
+    q = np.asarray(q, dtype=float)
+    if q.shape == (4,):
+        return _quat_to_matrix_one(q)
     q = _as_quat(q)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     m = np.empty(q.shape[:-1] + (3, 3))
@@ -72,6 +77,22 @@ def quat_to_matrix(q) -> np.ndarray:
     m[..., 2, 1] = 2 * (y * z + w * x)
     m[..., 2, 2] = 1 - 2 * (x * x + y * y)
     return m
+
+
+def _quat_to_matrix_one(q: np.ndarray) -> np.ndarray:
+    """:func:`quat_to_matrix` of one quaternion (an optical measurement's attitude) in Python
+    floats: the same operations in the same order — the norm's squares summed left to right, as
+    numpy's reduction of four numbers does — so the same bits, at a tenth of the cost."""
+    w, x, y, z = q.tolist()
+    if not (math.isfinite(w) and math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        raise FrameError("quaternion is not finite")
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    if n < 1e-12:
+        raise FrameError("zero quaternion")
+    w, x, y, z = w / n, x / n, y / n, z / n
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def matrix_to_quat(m) -> np.ndarray:
