@@ -20,7 +20,8 @@ class StateEstimate:
 
     @property
     def sigma(self) -> np.ndarray:
-        return np.sqrt(np.clip(np.diag(self.P), 0.0, None))
+        # np.clip with only a lower bound is np.maximum; called directly, without clip's wrappers
+        return np.sqrt(np.maximum(self.P.diagonal(), 0.0))
 
 
 @dataclass(frozen=True)
@@ -38,4 +39,6 @@ class FilterEstimate(StateEstimate):
     @property
     def position_sigma_km(self) -> float:
         """Root of the trace of the position covariance (RTPC, Lubey & Ely 2022 §4.2)."""
-        return float(math.sqrt(max(np.trace(self.P[0:3, 0:3]), 0.0)))
+        # the three terms added left to right from 0.0, as numpy's trace adds them
+        P = self.P
+        return math.sqrt(max(0.0 + float(P[0, 0]) + float(P[1, 1]) + float(P[2, 2]), 0.0))
