@@ -8,6 +8,7 @@ truth B-plane is computed on the ground from the recorded truth with the FSW's B
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from dataclasses import dataclass
 from typing import Any
@@ -65,13 +66,35 @@ def residual_traces(messages: list[m.Residuals]) -> dict[tuple[str, str], Residu
         out[key] = ResidualTrace(
             kind=key[0], source=key[1], filters=filters,
             t_s=np.array([s.t_s for s in samples]),
-            residual=np.array([s.residual for s in samples], dtype=float),
-            sigma=np.array([s.sigma for s in samples], dtype=float),
-            normalised=np.array([s.normalised for s in samples], dtype=float),
-            nis=np.array([s.nis for s in samples], dtype=float),
-            processed=np.array([s.processed for s in samples], dtype=bool),
+            residual=_stacked([s.residual for s in samples], float),
+            sigma=_stacked([s.sigma for s in samples], float),
+            normalised=_stacked([s.normalised for s in samples], float),
+            nis=_stacked([s.nis for s in samples], float),
+            processed=_stacked([s.processed for s in samples], bool),
         )
     return out
+
+
+def _stacked(rows: list[Any], dtype: type) -> np.ndarray:
+    """``np.array(rows, dtype)`` of M equally shaped rows — of N values, or of N sequences of n
+    values — from one flat list: numpy's discovery of the shape of 10⁴ nested tuples costs ten
+    times the conversion. Rows that are not all alike (a malformed recording) take numpy's own
+    path, and get its result or its error."""
+    try:
+        M, N = len(rows), len(rows[0])
+        if N and isinstance(rows[0][0], (tuple, list)):
+            n = len(rows[0][0])
+            flat = [v for row in rows if len(row) == N for comp in row if len(comp) == n for v in comp]
+            shape: tuple[int, ...] = (M, N, n)
+        else:
+            flat = [v for row in rows if len(row) == N for v in row]
+            shape = (M, N)
+        arr: np.ndarray = np.array(flat, dtype=dtype)
+        if arr.shape == (math.prod(shape),):
+            return arr.reshape(shape)
+    except (TypeError, ValueError, IndexError):
+        pass
+    return np.array(rows, dtype=dtype)
 
 
 def nis_statistics(traces: dict[tuple[str, str], ResidualTrace]) -> dict[str, dict[str, dict[str, float]]]:
