@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -19,19 +20,45 @@ from fsw.interface import messages as m
 from fsw.models.bplane import NotHyperbolic, bplane_jacobian
 
 
-@dataclass
 class ResidualTrace:
-    """Residuals of one measurement kind from one station/target; arrays (M samples, N filters, n comps)."""
+    """Residuals of one measurement kind from one station/target, in time order; arrays (M
+    samples, N filters, n components), each built from the samples when first read (the run
+    summary, which every run and campaign task computes, reads only the NIS)."""
 
-    kind: str
-    source: str
-    filters: tuple[str, ...]
-    t_s: np.ndarray
-    residual: np.ndarray
-    sigma: np.ndarray
-    normalised: np.ndarray
-    nis: np.ndarray
-    processed: np.ndarray
+    def __init__(self, kind: str, source: str, filters: tuple[str, ...], samples: list[m.ResidualSample]):
+        self.kind = kind
+        self.source = source
+        self.filters = filters
+        self._samples = samples
+
+    @cached_property
+    def t_s(self) -> np.ndarray:
+        return np.array([s.t_s for s in self._samples])
+
+    @cached_property
+    def residual(self) -> np.ndarray:
+        return _stacked([s.residual for s in self._samples], float)
+
+    @cached_property
+    def sigma(self) -> np.ndarray:
+        return _stacked([s.sigma for s in self._samples], float)
+
+    @cached_property
+    def normalised(self) -> np.ndarray:
+        return _stacked([s.normalised for s in self._samples], float)
+
+    @cached_property
+    def nis(self) -> np.ndarray:
+        return _stacked([s.nis for s in self._samples], float)
+
+    @cached_property
+    def processed(self) -> np.ndarray:
+        return _stacked([s.processed for s in self._samples], bool)
+
+    @property
+    def dimension(self) -> int:
+        """Components n of the measurement (the residual's last axis)."""
+        return int(self.residual.shape[2]) if "residual" in self.__dict__ else len(self._samples[0].residual[0])
 
 
 @dataclass
@@ -63,15 +90,7 @@ def residual_traces(messages: list[m.Residuals]) -> dict[tuple[str, str], Residu
     out = {}
     for key, samples in sorted(groups.items()):
         samples.sort(key=lambda s: s.t_s)
-        out[key] = ResidualTrace(
-            kind=key[0], source=key[1], filters=filters,
-            t_s=np.array([s.t_s for s in samples]),
-            residual=_stacked([s.residual for s in samples], float),
-            sigma=_stacked([s.sigma for s in samples], float),
-            normalised=_stacked([s.normalised for s in samples], float),
-            nis=_stacked([s.nis for s in samples], float),
-            processed=_stacked([s.processed for s in samples], bool),
-        )
+        out[key] = ResidualTrace(key[0], key[1], filters, samples)
     return out
 
 
@@ -109,7 +128,7 @@ def nis_statistics(traces: dict[tuple[str, str], ResidualTrace]) -> dict[str, di
         by_kind[tr.kind].append(tr)
     out: dict[str, dict[str, dict[str, float]]] = {}
     for kind, trs in sorted(by_kind.items()):
-        n = trs[0].residual.shape[2]
+        n = trs[0].dimension
         lo, hi = chi2.ppf(0.025, n), chi2.ppf(0.975, n)
         out[kind] = {}
         for i, name in enumerate(trs[0].filters):
