@@ -20,6 +20,13 @@ from fsw.interface import messages as m
 from fsw.models.bplane import NotHyperbolic, bplane_jacobian
 
 
+def _sample_array(field: str, dtype: type) -> cached_property[np.ndarray]:
+    """A :class:`ResidualTrace` array of one sample field, built when first read."""
+    def build(trace: ResidualTrace) -> np.ndarray:
+        return _stacked([getattr(s, field) for s in trace._samples], dtype)
+    return cached_property(build)
+
+
 class ResidualTrace:
     """Residuals of one measurement kind from one station/target, in time order; arrays (M
     samples, N filters, n components), each built from the samples when first read (the run
@@ -35,25 +42,11 @@ class ResidualTrace:
     def t_s(self) -> np.ndarray:
         return np.array([s.t_s for s in self._samples])
 
-    @cached_property
-    def residual(self) -> np.ndarray:
-        return _stacked([s.residual for s in self._samples], float)
-
-    @cached_property
-    def sigma(self) -> np.ndarray:
-        return _stacked([s.sigma for s in self._samples], float)
-
-    @cached_property
-    def normalised(self) -> np.ndarray:
-        return _stacked([s.normalised for s in self._samples], float)
-
-    @cached_property
-    def nis(self) -> np.ndarray:
-        return _stacked([s.nis for s in self._samples], float)
-
-    @cached_property
-    def processed(self) -> np.ndarray:
-        return _stacked([s.processed for s in self._samples], bool)
+    residual = _sample_array("residual", float)
+    sigma = _sample_array("sigma", float)
+    normalised = _sample_array("normalised", float)
+    nis = _sample_array("nis", float)
+    processed = _sample_array("processed", bool)
 
     @property
     def dimension(self) -> int:
