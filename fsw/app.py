@@ -62,6 +62,8 @@ def run_fsw(
         else:
             core = restored.core
             life.restore_publishers(restored.published)
+            for topic, msg in restored.unpublished:  # first, as it would have been
+                outbox.put(topic, msg)
         if hold_for_logger_s is not None:
             life.hold_while_away(topics.FSW_STATUS, hold_for_logger_s)  # only the logger takes the status
         # the FIFO must hold more than the producer's credit window (see CreditWindow)
@@ -98,16 +100,19 @@ def run_fsw(
         def save() -> None:
             nonlocal served_at_save
             served_at_save = server.served
-            outbox.flush()  # the checkpoint records the publishers' counts: all of it published
-            if checkpoint_path is None:
-                return
-            try:
-                checkpoint.write(checkpoint_path, checkpoint.Checkpoint(
-                    core, core.taken, {t: p.count for t, p in life.publishers.items()}, sub.end_of_run.get(producer),
-                    server.accepted_nonces), signer)
-            except OSError:
-                # a full disk must not stop the flight software: the previous checkpoint stays
-                at_stop["checkpoint_errors"] = at_stop.get("checkpoint_errors", 0) + 1
+            if checkpoint_path is not None:
+                # The telemetry not yet published goes into the checkpoint, which counts what was:
+                # a restart publishes it first, under the numbers it would have had. (Published
+                # first, a burst put just before the checkpoint may still wait in Zenoh's queue, and
+                # die with a process killed right after it while the restart goes on after it.)
+                try:
+                    checkpoint.write(checkpoint_path, checkpoint.Checkpoint(
+                        core, core.taken, {t: p.count for t, p in life.publishers.items()},
+                        sub.end_of_run.get(producer), server.accepted_nonces, outbox.held()), signer)
+                except OSError:
+                    # a full disk must not stop the flight software: the previous checkpoint stays
+                    at_stop["checkpoint_errors"] = at_stop.get("checkpoint_errors", 0) + 1
+            outbox.flush()
             schedule.mark(core.taken, core.t_last)
 
         if restored is None:
@@ -138,9 +143,10 @@ def run_fsw(
                     break
                 if life.should_stop():
                     # what was delivered but not yet taken is not processed either: counted, with the
-                    # backlog and what the intake holds, in the status that says how far it got
+                    # measurements queued before the filter bank and what the intake holds, in the status
+                    # that says how far it got
                     unread = sum(1 for g in sub.drain_available() if g.topic == topics.SIM_MEASUREMENTS)
-                    at_stop.update(unread=unread, unprocessed=unread + core.executive.pending_jobs + core.guard.pending)
+                    at_stop.update(unread=unread, unprocessed=unread + core.unprocessed())
                     core.stopped(f"stopped ({life.stop_reason()})")
                     raise KeyboardInterrupt  # the stop status goes out with the rest (below)
                 if idle_timeout_s is not None and now - last_data > idle_timeout_s:

@@ -215,3 +215,23 @@ def test_served_nonces_survive_a_restart():
     again = auth.NonceGuard(capacity=4)
     again.restore(guard.snapshot())
     assert [again.first_use(n) for n in ("a", "b", "c", "d")] == [False, False, False, True]
+
+
+def test_the_telemetry_not_yet_published_travels_with_the_checkpoint(flown, tmp_path):
+    """The FSW process checkpoints what its outbox holds instead of publishing it first (a burst
+    put just before the checkpoint could die unsent with the process): the restored list is the
+    held messages, in order, byte for byte."""
+    from fsw.transport import Outbox
+
+    cfg, run = flown
+    published: list = []
+    box = Outbox(lambda t, m: published.append((t, m)), limit=100_000)
+    core = FswCore(cfg.fsw, box.put, run_id="r")
+    core.start()
+    for meas in run.measurements[:300]:
+        core.ingest(meas)
+    held = box.held()
+    assert len(held) > 100 and published == []
+    ck.write(tmp_path / "c", ck.Checkpoint(core, core.taken, {"fsw/status": 1}, None, [], held))
+    restored = ck.read(tmp_path / "c", cfg.fsw, "r", lambda t, m: None)
+    assert _encoded(restored.unpublished) == _encoded(held) and restored.published == {"fsw/status": 1}

@@ -275,3 +275,21 @@ def test_report_maps_onto_the_icd_budget_report():
     msg = messages.BudgetReport(timestamp=messages.Stamp(sec=0, nsec=0), **report.icd_fields())
     back = codec.from_json(messages.BudgetReport, codec.to_json(msg))
     assert (back.frame, back.used, back.budget, back.deferred, back.backlog, back.mode) == (0, 10.0, 10.0, 6, 1, "work-units")
+
+
+def test_pending_with_counts_jobs_whose_stage_has_not_run():
+    """Under the priority policy the primary stages run first: with a budget for two of them per
+    frame, jobs whose primary stage ran but whose gating waits still count in ``pending_jobs``,
+    not in ``pending_with('bank')``."""
+    ex = FrameExecutive(wu(work_unit_budget=2.0))
+    for k in range(5):
+        ex.submit(Job(t=float(k), stages=(Stage("primary", lambda: None, cost=1.0, name="bank"),
+                                          Stage("gating", lambda: None, cost=1.0))))
+    assert ex.pending_with("bank") == 5 and ex.pending_with("gating") == 5 and ex.pending_with("other") == 0
+    ex.run_frame(10.0)  # all five due: two primary stages fit
+    assert ex.pending_jobs == 5 and ex.pending_with("bank") == 3 and ex.pending_with("gating") == 5
+    ex.run_frame(20.0)
+    ex.run_frame(30.0)  # the last primary stage, then one gating stage
+    assert ex.pending_with("bank") == 0 and ex.pending_jobs == 4
+    ex.drain()
+    assert ex.pending_jobs == 0 and ex.pending_with("gating") == 0

@@ -80,3 +80,26 @@ def test_cpu_mode_counts_overruns_and_still_processes_everything(nominal):
     assert s.budget.overruns > 0
     assert s.measurements.processed == s.measurements.published
     assert s.budget.final_backlog == 0
+
+
+def test_unprocessed_counts_measurements_before_the_bank_not_jobs_waiting_for_gating(nominal):
+    """What a stopped FSW reports as unprocessed: every measurement taken is processed, rejected
+    or unprocessed — also while a short budget holds the gating of processed ones frames back
+    (they stay in the executive's pending jobs, but they are not unprocessed)."""
+    from fsw.core import FswCore
+    from fsw.interface import messages as m
+    from sim.stream import generate
+    from tools.scenario import resolve
+
+    cfg, _ = nominal
+    resolved, seed = resolve(_budget(cfg, work_unit_budget=25.0), None)
+    run = generate(resolved.sim, seed=seed)
+    core = FswCore(resolved.fsw, lambda topic, msg: None, run_id="unprocessed")
+    core.start()
+    waiting_for_gating = 0
+    for msg in [x for _, x in run.iter_messages() if isinstance(x, m.Measurement)][:1500]:
+        core.ingest(msg)
+        c = core.status_counts()
+        assert c["processed"] + c["rejected"] + core.unprocessed() == core.taken
+        waiting_for_gating = max(waiting_for_gating, core.executive.pending_jobs - core.unprocessed())
+    assert waiting_for_gating > 0  # the short budget did hold gating stages back

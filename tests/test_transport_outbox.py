@@ -49,3 +49,12 @@ def test_a_put_that_fails_keeps_it_and_what_follows_held():
 def test_an_outbox_holds_at_least_one_message():
     with pytest.raises(ValueError):
         Outbox(lambda t, m: None, limit=0)
+
+
+def test_held_gives_what_is_held_and_keeps_it_held():
+    out: list[tuple[str, object]] = []
+    box = Outbox(lambda t, m: out.append((t, m)), limit=10)
+    for i in range(3):
+        box.put("fsw/budget", i)
+    assert box.held() == [("fsw/budget", 0), ("fsw/budget", 1), ("fsw/budget", 2)] and out == []
+    assert box.pending == 3 and box.flush() == 3 and box.held() == []

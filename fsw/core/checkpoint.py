@@ -51,7 +51,8 @@ from fsw.interface.messages import SCHEMA_VERSION, RunStatus
 
 FORMAT = "navbank-fsw-checkpoint"
 #: Bumped whenever what is pickled changes shape: an older file is refused, not misread.
-VERSION = 5  # 5: the filter stack keeps work arrays for range predictions; 4: the ephemeris environment pickles its table span and station nodes compactly; 3: the
+VERSION = 6  # 6: the telemetry not yet published; 5: the filter stack keeps work arrays for range
+# predictions; 4: the ephemeris environment pickles its table span and station nodes compactly; 3: the
 # core holds the residuals of the current batch and the B-plane cadence
 #: The header line is read before anything else; a longer one is not a checkpoint.
 MAX_HEADER_BYTES = 4096
@@ -71,6 +72,9 @@ class Checkpoint:
     producer_end: RunStatus | None = None
     # telecommand nonces already served: a restarted FSW must not serve a captured command again
     accepted_nonces: list[str] = field(default_factory=list)
+    # what the core had emitted but the process not yet published, (topic, message) oldest first:
+    # a restart publishes it first (``published`` counts what had been)
+    unpublished: list[tuple[str, Any]] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -107,7 +111,7 @@ def dumps(ckpt: Checkpoint, signer: Signer | None = None) -> bytes:
         {"core": ckpt.core, "measurements_taken": int(ckpt.measurements_taken),
          "published": dict(ckpt.published),
          "producer_end": None if ckpt.producer_end is None else codec.to_json(ckpt.producer_end),
-         "accepted_nonces": list(ckpt.accepted_nonces)},
+         "accepted_nonces": list(ckpt.accepted_nonces), "unpublished": list(ckpt.unpublished)},
         protocol=pickle.HIGHEST_PROTOCOL)
     header = {
         "format": FORMAT, "version": VERSION, "schema_version": SCHEMA_VERSION,
@@ -221,7 +225,8 @@ def read(path: str | os.PathLike[str], config: FswConfig, run_id: str, emit: Emi
     return Checkpoint(core=core, measurements_taken=int(state["measurements_taken"]),
                       published=dict(state["published"]),
                       producer_end=None if end is None else codec.from_json(RunStatus, end),
-                      accepted_nonces=[str(n) for n in state.get("accepted_nonces", [])])
+                      accepted_nonces=[str(n) for n in state.get("accepted_nonces", [])],
+                      unpublished=[(str(t), msg) for t, msg in state.get("unpublished", [])])
 
 
 class Schedule:

@@ -52,6 +52,9 @@ from fsw.ingest import SequenceGuard
 from fsw import kernels
 from fsw.interface import codec, messages as m, topics
 
+#: Label of the pipeline's filter-bank stage: a measurement is processed once it has run.
+BANK_STAGE = "bank"
+
 
 class FswCore:
     """Bank + gating + detector + executive; emits ICD telemetry through ``emit(topic, msg)``."""
@@ -371,7 +374,7 @@ class FswCore:
     #: One job per measurement: (priority class, label, stage, declared cost in work units).
     PIPELINE: ClassVar[tuple[StageSpec[FswCore], ...]] = (
         StageSpec("ingest", None, _stage_ingest, ingest_cost),
-        StageSpec("primary", "bank", _stage_bank, bank_cost),
+        StageSpec("primary", BANK_STAGE, _stage_bank, bank_cost),
         StageSpec("gating", None, _stage_gating, gating_cost),
         StageSpec("telemetry", None, _stage_telemetry, telemetry_cost),
     )
@@ -463,6 +466,12 @@ class FswCore:
         self.max_utilisation = max(self.max_utilisation, float(rep.utilisation))
         self._next_idle_report = rep.t_s + self.config.telemetry.idle_budget_every_s
         self._emit(topics.FSW_BUDGET, budget_message(rep))
+
+    def unprocessed(self) -> int:
+        """Measurements taken that have not been through the filter bank yet: queued before their
+        bank stage, or held by the intake. (A job whose bank stage has run is processed or
+        rejected, whatever of its gating and telemetry still waits.)"""
+        return self.executive.pending_with(BANK_STAGE) + self.guard.pending
 
     def status_counts(self) -> dict[str, int]:
         """The counters every RunStatus carries (see :func:`fsw.core.counters.status_counts`)."""

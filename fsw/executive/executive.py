@@ -322,6 +322,14 @@ class FrameExecutive:
         with self._lock:
             return self._queue.pending_jobs + len(self._future)
 
+    def pending_with(self, label: str) -> int:
+        """Jobs, due or not yet due, with a stage labelled ``label`` still to run: under the
+        priority policy a job whose primary stage has run may wait frames for its gating and
+        telemetry, and counts in :attr:`pending_jobs` all that time."""
+        with self._lock:
+            future = sum(1 for state in self._future if any(stage.label == label for stage in state.job.stages))
+            return future + self._queue.pending_with(label)
+
     @property
     def errors(self) -> tuple[StageError, ...]:
         """The most recent stage errors (at most ``config.error_log``)."""

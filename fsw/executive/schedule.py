@@ -71,6 +71,11 @@ class StageQueue:
         self.pending_stages += len(state.job.stages)
         self.pending_jobs += 1
 
+    def pending_with(self, label: str) -> int:
+        """Due jobs with a stage labelled ``label`` still to run."""
+        return sum(1 for state in self._jobs
+                   if not state.done and any(stage.label == label for stage in state.job.stages[state.next:]))
+
     def oldest(self) -> JobState | None:
         """The oldest job with a stage outstanding."""
         jobs = self._jobs

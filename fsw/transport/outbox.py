@@ -8,10 +8,13 @@ each, published one at a time as the core emitted them.
 
 So the FSW process hands its core an :class:`Outbox`: what the core emits is queued while
 measurements are waiting to be taken, and published, in the order emitted, when the input runs
-dry, when ``limit`` messages are held, and before anything that must find them published (a
-checkpoint records every publisher's count, the end-of-run confirmation counts what arrived, a
-stop). Nothing is dropped or reordered, and with the input idle a message waits no longer than
+dry, when ``limit`` messages are held, and before anything that must find them published (the
+end-of-run confirmation counts what arrived, a stop). Nothing is dropped or reordered, and with the input idle a message waits no longer than
 it did; under a burst the ground hears of it at most ``limit`` messages late.
+
+A checkpoint takes what is held (:meth:`held`) rather than publishing it first: a put hands the
+message to Zenoh, which sends it from its own thread, so a burst put just before a checkpoint
+could die unsent with a process killed right after it, and the restart would go on after it.
 """
 
 from __future__ import annotations
@@ -50,6 +53,10 @@ class Outbox:
         if n:
             self.flushes += 1
         return n
+
+    def held(self) -> list[tuple[str, object]]:
+        """The messages held, oldest first (they stay held)."""
+        return list(self._held)
 
     @property
     def pending(self) -> int:
