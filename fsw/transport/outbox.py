@@ -9,8 +9,9 @@ each, published one at a time as the core emitted them.
 So the FSW process hands its core an :class:`Outbox`: what the core emits is queued while
 measurements are waiting to be taken, and published, in the order emitted, when the input runs
 dry, when ``limit`` messages are held, and before anything that must find them published (the
-end-of-run confirmation counts what arrived, a stop). Nothing is dropped or reordered, and with the input idle a message waits no longer than
-it did; under a burst the ground hears of it at most ``limit`` messages late.
+end-of-run confirmation counts what arrived, a stop). Nothing is dropped or reordered, and with
+the input idle a message waits no longer than it did; under a burst the ground hears of it at
+most ``limit`` messages late.
 
 A checkpoint takes what is held (:meth:`held`) rather than publishing it first: a put hands the
 message to Zenoh, which sends it from its own thread, so a burst put just before a checkpoint
