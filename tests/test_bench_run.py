@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import json
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -154,3 +155,39 @@ def test_an_in_process_run_says_where_its_cpu_went():
     assert t.resolve_cpu_s >= 0 and t.sim_cpu_s > 0 and t.fsw_cpu_s > 0 and t.summary_cpu_s > 0 and t.wall_s > 0
     # the simulator's faults that start after the shortened arc are dropped, the others kept
     assert scenario(0.25).sim.faults == () and scenario(None).sim.faults
+
+
+def _processes_with(word: str) -> set[str]:
+    """Ids of the running processes whose command line holds ``word``."""
+    found = set()
+    for proc in Path("/proc").iterdir():
+        try:
+            if proc.name.isdigit() and word.encode() in (proc / "cmdline").read_bytes():
+                found.add(proc.name)
+        except OSError:
+            pass
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+def test_fsw_startup_cpu_is_read_once_the_fsw_waits_for_data_and_the_process_is_stopped(tmp_path):
+    from tools.bench.core import scenario
+    from tools.bench.navrun import fsw_startup_cpu
+    from tools.scenario import resolve, to_yaml
+
+    cfg, _ = resolve(scenario(1.0), 1)
+    path = tmp_path / "config.yaml"
+    path.write_text(to_yaml(cfg), encoding="utf-8")
+    before = _processes_with("bench-startup")
+    cpu = fsw_startup_cpu(path)
+    # imports alone (numpy, numba and its kernels) take a good part of a second of CPU
+    assert cpu is not None and 0.2 < cpu < 30.0
+    assert _processes_with("bench-startup") <= before  # the FSW it started is gone
+
+
+def test_fsw_startup_cpu_of_a_command_that_exits_is_none(tmp_path):
+    from tools.bench.navrun import fsw_startup_cpu
+
+    bad = tmp_path / "config.yaml"
+    bad.write_text("fsw: [not, a, mapping]\n", encoding="utf-8")
+    assert fsw_startup_cpu(bad, timeout_s=60.0) is None
