@@ -19,7 +19,7 @@ from tools.commands.errors import UsageError
 from tools.commands.help_text import PlainHelpFormatter, version_text
 from tools.supervision import watch_supervisor_from_env
 from tools.commands.outputs import write_error_line
-from tools import process_gc
+from tools import blas_threads, process_gc
 
 #: Subcommand modules, in the order ``navbank --help`` lists them.
 COMMANDS = (
@@ -89,11 +89,13 @@ def build_parser(commands: tuple[str, ...] = COMMANDS) -> argparse.ArgumentParse
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command ``argv`` (default: this process's command line, which then also tunes the
-    process's garbage collector: :mod:`tools.process_gc`)."""
+    """Run the command ``argv`` (default: this process's command line, which then also sets up the
+    process: one BLAS thread, :mod:`tools.blas_threads`, and the garbage collector,
+    :mod:`tools.process_gc`)."""
     watch_supervisor_from_env()
     own_process = argv is None
     if own_process:
+        blas_threads.one_blas_thread()  # before the command's imports load numpy
         process_gc.starting()
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(_requested(argv))
