@@ -55,9 +55,10 @@ class CpuMeter:
 
     def predict(self, stage: Stage) -> float:
         key = stage.label
-        if key not in self._mean:
+        mean = self._mean.get(key)
+        if mean is None:
             return 0.0
-        return self._mean[key] + self._margin * self._dev[key]
+        return mean + self._margin * self._dev[key]
 
     def admits(self, predicted: float, remaining: float) -> bool:
         return remaining > 0.0 and predicted <= remaining
@@ -69,14 +70,17 @@ class CpuMeter:
         self._seen[key] = seen + 1
         if seen < self.COLD_START_SAMPLES:
             return cost
-        if key not in self._mean:
+        mean = self._mean.get(key)
+        if mean is None:
             # Half the first sample as initial deviation: cautious until the cost is known.
             self._mean[key] = cost
             self._dev[key] = 0.5 * cost
         else:
-            err = cost - self._mean[key]
-            self._mean[key] += self._gain * err
-            self._dev[key] += self._gain * (abs(err) - self._dev[key])
+            gain = self._gain
+            err = cost - mean
+            self._mean[key] = mean + gain * err
+            dev = self._dev[key]
+            self._dev[key] = dev + gain * (abs(err) - dev)
         return cost
 
     def estimates(self) -> dict[str, tuple[float, float]]:

@@ -85,7 +85,9 @@ class StageQueue:
 
     def peek(self) -> tuple[JobState, int] | None:
         """The stage the policy runs next, as (job, stage index), or None when nothing is due."""
-        if self._policy == "fifo":
+        if self._policy == "fifo" or self.pending_jobs <= 1:
+            # With one job outstanding (a frame's usual load: one measurement) every lane entry
+            # is that job's, and its one ready entry is its next stage: what both policies pick.
             state = self.oldest()
             return None if state is None else (state, state.next)
         # the ready lane head of lowest (priority rank, job order); ranks compared first because
