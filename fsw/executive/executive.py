@@ -30,7 +30,7 @@ from collections import deque
 from typing import Any, Callable
 
 from fsw.executive.config import BudgetConfig
-from fsw.executive.meter import CpuMeter, WorkUnitMeter
+from fsw.executive.meter import CpuMeter, WorkUnitMeter, measured_interval
 from fsw.executive.report import BudgetReportData, DrainResult, ExecutiveStats, StageError
 from fsw.executive.schedule import JobState, StageQueue
 from fsw.executive.work import Job, JobError, JobOrderError, Stage
@@ -256,10 +256,7 @@ class FrameExecutive:
             except Exception as exc:  # a faulty stage must never stop the executive
                 self._record_error(frame, state, stage, exc)
             mark = clock()
-            # measured_interval(start, mark), spelled out: a clock that misbehaves charges nothing
-            measured = mark - start
-            if not 0.0 <= measured < math.inf:
-                measured = 0.0
+            measured = measured_interval(start, mark)
             self._cpu_measured += measured
             cost = charge(stage, measured)
             if cost > remaining:
