@@ -235,3 +235,17 @@ def test_the_telemetry_not_yet_published_travels_with_the_checkpoint(flown, tmp_
     ck.write(tmp_path / "c", ck.Checkpoint(core, core.taken, {"fsw/status": 1}, None, [], held))
     restored = ck.read(tmp_path / "c", cfg.fsw, "r", lambda t, m: None)
     assert _encoded(restored.unpublished) == _encoded(held) and restored.published == {"fsw/status": 1}
+
+
+def test_the_config_digest_is_the_configurations_canonical_json_whichever_was_asked_last(flown):
+    cfg, _ = flown
+    other = dataclasses.replace(cfg.fsw, checkpoint=dataclasses.replace(
+        cfg.fsw.checkpoint, every_measurements=cfg.fsw.checkpoint.every_measurements + 1))
+    from fsw.interface import typed
+
+    def independent(c) -> str:
+        return hashlib.sha256(json.dumps(typed.encode(c), sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+    for c in (cfg.fsw, cfg.fsw, other, cfg.fsw, other, other):
+        assert ck.config_digest(c) == independent(c)
+    assert ck.config_digest(cfg.fsw) != ck.config_digest(other)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import hashlib
+import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -47,13 +50,55 @@ def test_kernels_are_compiled_before_the_core_starts():
 import numba.core.dispatcher as d
 from fsw.config import FswConfig
 from fsw.core.fswcore import FswCore
-from fsw.kernels import camera, count_start, doppler, joseph_update, light_time, time_update, variational_rk4
+from fsw.kernels import (camera, count_start, doppler, doppler_step, joseph_update, light_time, time_update,
+                         variational_rk4)
 kernels = [variational_rk4.rk4_variational, time_update.time_update, joseph_update.joseph_update,
            light_time.uplink_reception, light_time.uplink_light_time, light_time.uplink_solution,
            count_start.count_start_from_leg,
-           doppler.doppler_prediction, camera.pinhole_image]
+           doppler.doppler_prediction, doppler_step.doppler_step, camera.pinhole_image]
 assert all(len(k.signatures) == 1 and k._can_compile is False for k in kernels), [k.signatures for k in kernels]
 print("ok")
 """
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert proc.returncode == 0 and "ok" in proc.stdout, proc.stderr[-3000:]
+
+
+def _sha_of_sources(directory: Path) -> str:
+    h = hashlib.sha256()
+    for name in sorted(p.name for p in directory.iterdir() if p.suffix == ".py"):
+        h.update(name.encode() + b"\0" + (directory / name).read_bytes())
+    return h.hexdigest()
+
+
+def test_every_kernel_is_stamped_with_all_the_kernel_sources():
+    """A fused kernel carries copies of the kernels it calls: its cache must go stale when any
+    kernel's source changes, not only its own file."""
+    from fsw.kernels import doppler_step, joseph_update, variational_rk4
+
+    expected = _sha_of_sources(ROOT / "fsw" / "kernels")
+    for kernel in (doppler_step.doppler_step, joseph_update.joseph_update, variational_rk4.rk4_variational):
+        locator = kernel._cache._impl._locator
+        assert isinstance(locator, tuple(cache.LOCATORS)), type(locator)
+        assert locator.get_source_stamp() == expected
+
+
+def test_the_stamp_follows_the_sources_content_not_their_times(tmp_path):
+    copy = tmp_path / "kernels"
+    shutil.copytree(ROOT / "fsw" / "kernels", copy, ignore=shutil.ignore_patterns("__pycache__"))
+    before = cache.source_stamp(copy)
+    assert before == _sha_of_sources(copy)
+    os.utime(copy / "joseph_update.py", (0, 0))  # a checkout touching only times
+    assert cache.source_stamp(copy) == before
+    with open(copy / "joseph_update.py", "a") as f:
+        f.write("\n")
+    assert cache.source_stamp(copy) != before
+
+
+def test_functions_outside_the_kernels_keep_numbas_own_locators(tmp_path):
+    from fsw.kernels import joseph_update  # noqa: F401  (installs the locators)
+
+    other = tmp_path / "elsewhere.py"
+    other.write_text("def f():\n    return 1\n")
+    namespace: dict = {}
+    exec(compile(other.read_text(), str(other), "exec"), namespace)
+    assert cache.LOCATORS and all(loc.from_function(namespace["f"], str(other)) is None for loc in cache.LOCATORS)

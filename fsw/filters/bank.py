@@ -32,6 +32,7 @@ from fsw.filters.config import BankConfig
 from fsw.filters.ekf import EKFStack
 from fsw.filters.estimate import FilterEstimate
 from fsw.filters.errors import MeasurementRejected, UnknownFilter
+from fsw.filters.kind_model import KindModel
 from fsw.filters.record import BankRecord
 from fsw.filters.validate import screen
 from fsw.interface.messages import Measurement
@@ -60,8 +61,9 @@ class FilterBank:
         self.rejected: Counter[str] = Counter()
         self.processed_count = 0
         self._process_masks = {k: np.array([k in f.processes for f in config.filters]) for k in self.KINDS}
-        self._sigma_scale = {k: np.array([f.sigma_scale.get(k, 1.0) for f in config.filters]) for k in self.KINDS}
-        self._gate = np.array([np.inf if f.gate_chi2 is None else f.gate_chi2 for f in config.filters])
+        self._sigma_scale = {k: np.array([f.sigma_scale.get(k, 1.0) for f in config.filters], dtype=float)
+                             for k in self.KINDS}
+        self._gate = np.array([np.inf if f.gate_chi2 is None else f.gate_chi2 for f in config.filters], dtype=float)
         self._gate_or_none = self._gates()
         # each filter's columns of the union state (fixed: a state cannot be added at run time)
         self._layouts = [(tuple(self.state_names[c] for c in cols.tolist()), cols, bool(keep.all()))
@@ -225,27 +227,38 @@ class FilterBank:
         except MeasurementRejected as exc:
             self.rejected[exc.reason] += 1
             raise
-        self.stack.propagate_to(max(float(meas.t_s), self.t))
+        kind = meas.kind
+        model = kinds.model(kind)
+        t1 = max(float(meas.t_s), self.t)
+        does = self._process_masks[kind] & self.active
+        done = model.step(self.stack, meas, t1, value, sigma, self._sigma_scale[kind], does, self._gate)
+        if done is None:
+            residual, S, chi2, processed = self._steps(meas, model, t1, value, sigma, does)
+        else:
+            residual, S, chi2, processed = done
+        self.processed_count += 1
+        return BankRecord(t=float(meas.t_s), seq=int(meas.seq), kind=str(kind), filters=self.names,
+                          residual=residual, S=S, chi2=chi2, processed=processed.copy(), active=self.active.copy())
+
+    def _steps(self, meas: Measurement, model: KindModel, t1: float, value: np.ndarray, sigma: np.ndarray,
+               does: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Propagation, prediction and update one after the other (what ``model.step`` does in one
+        call where it can)."""
+        self.stack.propagate_to(t1)
         try:
             h, H = self.predict(meas)
         except GeometryError as exc:
             # only propagation (which any later measurement would do) has happened
             self.rejected["geometry"] += 1
             raise MeasurementRejected("geometry", str(exc)) from None
-        kind = meas.kind
-        var = self._sigma_scale[kind][:, None] * sigma  # (N, m) per-filter sigmas
+        var = self._sigma_scale[meas.kind][:, None] * sigma  # (N, m) per-filter sigmas
         var *= var
-        added = kinds.model(kind).added_variance(self.stack, meas)
+        added = model.added_variance(self.stack, meas)
         if added is not None:
             var += added[:, None]
         m = sigma.size
         R = var[:, :, None] if m == 1 else var[:, :, None] * (_EYES[m] if m in _EYES else np.eye(m))
-        does = self._process_masks[kind] & self.active
-        gate = self._gate_or_none
-        residual, S, chi2, processed = self.stack.update(value, h, H, R, does, gate)
-        self.processed_count += 1
-        return BankRecord(t=float(meas.t_s), seq=int(meas.seq), kind=str(kind), filters=self.names,
-                          residual=residual, S=S, chi2=chi2, processed=processed.copy(), active=self.active.copy())
+        return self.stack.update(value, h, H, R, does, self._gate_or_none)
 
     def _gates(self) -> np.ndarray | None:
         """The per-filter gates, None while no filter edits (kept in ``_gate_or_none``, read per

@@ -91,13 +91,19 @@ class _Batched:
 
 class DopplerWork:
     """Arrays a Doppler prediction fills for every count (read before the next one): both ends'
-    [r, v] (2, N, 6), their epochs, the start's sensitivity and the light-time solution."""
+    [r, v] (2, N, 6), their epochs, the start's sensitivity and the light-time solution; for the
+    whole-count step (:func:`fsw.filters.radiometric_kinds.doppler_count_step`) also the clock
+    phase δ, the prediction h (N, 1) and H (N, 1, n) and R (N, 1, 1)."""
 
-    def __init__(self, N: int, nq: int):
+    def __init__(self, N: int, nq: int, n: int):
         self.z = np.empty((2, N, 6))
         self.tt = np.empty(2)
         self.Yb = np.empty((N, 6, 6 + nq))
         self.uplinks = UplinkWork(2, N)
+        self.delta = np.empty(N)
+        self.h = np.empty((N, 1))
+        self.H = np.empty((N, 1, n))
+        self.R = np.empty((N, 1, 1))
 
 
 class RangeWork:
@@ -232,7 +238,7 @@ class EKFStack:
         ]
         self._any_adaptive = any(aq is not None for aq in self.adaptive_q)
         self._no_gate = np.full(N, np.inf)
-        self.doppler_work = DopplerWork(N, nq)
+        self.doppler_work = DopplerWork(N, nq, L.n)
         self.range_work = RangeWork(N)
 
     # -- propagation ----------------------------------------------------------------------------
@@ -268,11 +274,30 @@ class EKFStack:
         P = np.empty((N, n, n))
         P_prior = self.P if self.P.flags.c_contiguous else np.ascontiguousarray(self.P)
         time_update(x, z1, P_prior, Y, self._phi_source, c0, c1, h, self.clock_q, self.snc_psd, x_new, P)
-        # x is no longer the stack's state and nothing else writes it: it serves as the leg's start
-        self._last_leg = (self.t, t1, x, z1, q, Y)
-        self._q_known = (x_new, q)
-        self.x = x_new
-        self.P = P
+        self.end_leg(t1, x, z1, q, Y, x_new, P)
+
+    def plain_leg(self, t1: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(x, P, q) to fly the next leg to t1 with the kernels directly, when it is a plain one:
+        forward, crossing no batch boundary or manoeuvre, with fixed process noise and C-ordered
+        arrays. None otherwise (:meth:`propagate_to` then handles it)."""
+        if not (self.t < t1 < self._next_event and t1 <= self._event_horizon) or self._any_adaptive:
+            return None
+        x, P = self.x, self.P
+        if not (x.flags.c_contiguous and P.flags.c_contiguous):
+            return None
+        known, q = self._q_known
+        return x, P, (q if known is x else self.drivers(x))
+
+    def end_leg(self, t1: float, x0: np.ndarray, z1: np.ndarray, q: np.ndarray, Y: np.ndarray, x1: np.ndarray,
+                P1: np.ndarray) -> None:
+        """Take the state x1, P1 at t1 that a leg from the current epoch reached, flown with drivers
+        q from the state x0, and remember the leg (end [r, v] z1, sensitivity Y) for a Doppler
+        count over it (:meth:`count_start`)."""
+        # x0 is no longer the stack's state and nothing else writes it: it serves as the leg's start
+        self._last_leg = (self.t, t1, x0, z1, q, Y)
+        self._q_known = (x1, q)
+        self.x = x1
+        self.P = P1
         self.t = t1
 
     def _events(self, t1: float) -> list[float]:

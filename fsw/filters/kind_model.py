@@ -3,7 +3,8 @@
 The bank knows no kind by name. For each measurement it looks the kind up in the registry
 (:mod:`fsw.filters.kinds`) and asks that kind's model to screen the message, to predict it with
 every filter — h_ij(x̄_ij) and H̃_ij, the quantities of Lubey & Ely 2022 eq. 5 — and for any
-variance the reported sigma leaves out.
+variance the reported sigma leaves out. A model may also take the whole measurement step in one
+compiled call where the step by step path costs more in calls than in arithmetic (a Doppler count).
 """
 
 from __future__ import annotations
@@ -44,4 +45,15 @@ class KindModel(Protocol):
 
     def added_variance(self, stack: EKFStack, meas: Measurement) -> np.ndarray | None:
         """(N,) variance each filter adds to every component of R beyond the reported sigma, or None."""
+        ...
+
+    def step(self, stack: EKFStack, meas: Measurement, t1: float, value: np.ndarray, sigma: np.ndarray,
+             scale: np.ndarray, does: np.ndarray, gate: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """The bank's whole filtering of one screened measurement — propagation to t1, prediction
+        with every filter, R from ``sigma`` (m,) times the filters' ``scale`` (N,) and the added
+        variance, the update of the filters that ``does`` under their ``gate`` (N,) (inf: none) —
+        in one compiled call, with the results of those steps one by one; returns what
+        :meth:`EKFStack.update` returns. None where the model has no such call or it does not
+        apply: the bank then runs the steps (the stack may already be at t1)."""
         ...

@@ -62,3 +62,7 @@ class OpticalModel:
 
     def added_variance(self, stack: EKFStack, meas: Measurement) -> np.ndarray | None:
         return None
+
+    def step(self, stack: EKFStack, meas: Measurement, t1: float, value: np.ndarray, sigma: np.ndarray,
+             scale: np.ndarray, does: np.ndarray, gate: np.ndarray) -> None:
+        return None

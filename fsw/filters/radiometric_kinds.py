@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from fsw.astro.constants import C_KM_S
+from fsw.astro.constants import C_KM_S, GM_SUN, OMEGA_EARTH_RAD_S
 from fsw.astro.stations import StationError
 from fsw.fdir.families import RADIO
 from fsw.filters.errors import MeasurementRejected
@@ -24,6 +24,7 @@ from fsw.kernels import on_first_call
 from fsw.models.radiometric import solve_uplinks
 
 doppler_prediction = on_first_call(globals(), "doppler_prediction", "fsw.kernels.doppler")
+doppler_step = on_first_call(globals(), "doppler_step", "fsw.kernels.doppler_step")
 
 if TYPE_CHECKING:
     from fsw.filters.ekf import EKFStack
@@ -84,18 +85,81 @@ def doppler_clock_variance(stack: EKFStack, count_s: float) -> np.ndarray:
     Neither is in the frequency state, so each count carries c² (q1/T + q2 T/3) of its own
     (the Allan variance at τ = T of those two noises; 0.018 mm/s for a DSAC-class clock at
     60 s). Filters without clock states model no clock noise here."""
+    return _clock_variance(stack, count_s)[1]
+
+
+def _clock_variance(stack: EKFStack, count_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`doppler_clock_variance` kept for the next count of the same length: the array (for
+    the compiled step, which only reads it) and a read-only view of it (handed out)."""
     q = stack.clock_q
     key = (count_s, q.tobytes())  # what the result depends on (q is tunable in flight)
     hit = _last_clock_variance[0]
     if hit is not None and hit[0] == key:
         return hit[1]
     out = (C_KM_S**2 / count_s) * q[:, 0] + (C_KM_S**2 * count_s / 3.0) * q[:, 1]
-    out.flags.writeable = False  # handed out again for the next count of the same length
-    _last_clock_variance[0] = (key, out)
-    return out
+    view = out.view()
+    view.flags.writeable = False
+    _last_clock_variance[0] = (key, (out, view))
+    return out, view
 
 
-_last_clock_variance: list[tuple[tuple[float, bytes], np.ndarray] | None] = [None]
+_last_clock_variance: list[tuple[tuple[float, bytes], tuple[np.ndarray, np.ndarray]] | None] = [None]
+
+
+def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float, value: np.ndarray, sigma: float,
+                       scale: np.ndarray, does: np.ndarray, gate: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """A Doppler count through the bank in one compiled call (:func:`fsw.kernels.doppler_step.doppler_step`):
+    the leg from the bank's epoch to the time tag t1, the prediction of :func:`predict_doppler`, R
+    (reported ``sigma`` times each filter's ``scale``, squared, plus :func:`doppler_clock_variance`)
+    and the Joseph update of the filters that ``does`` under their chi-square ``gate`` (inf: no
+    editing). Returns (residual, S, chi2, processed) as :meth:`EKFStack.update` does.
+
+    It applies when the count spans exactly that leg (a count per count interval), the leg is a
+    plain one (:meth:`EKFStack.plain_leg`) and the station node the last light time solution used
+    is this station's. Otherwise it returns None with the bank untouched, or — the transmit epochs
+    needing another table or node — with the leg flown and the rest left to the step by step path
+    (whose time update is then a no-op)."""
+    t0 = stack.t
+    start = t1 - count_s
+    if abs(t0 - start) >= 1e-6:  # the count does not begin at the bank's epoch
+        return None
+    env = stack.env
+    last = env.last_station_node(station)
+    if last is None:
+        return None
+    leg = stack.plain_leg(t1)
+    if leg is None:
+        return None
+    x, P, q = leg
+    N, n = x.shape
+    propagation = stack.propagator.kernel_arguments(t0, t1)
+    herm, t_first, step, lo_ok, hi_ok = env.hermite_window(min(t1, start) - 1.0, max(t1, start) + 1.0)
+    c0, c1 = stack.clock_columns or (0, 0)
+    w = stack.doppler_work
+    u = w.uplinks
+    z1 = np.empty((N, 6))
+    Y = np.empty(w.Yb.shape)
+    x_prop = np.empty((N, n))
+    P_prop = np.empty((N, n, n))
+    residual = np.empty((N, 1))
+    x_new = np.empty((N, n))
+    P_new = np.empty((N, n, n))
+    S = np.empty((N, 1, 1))
+    chi2 = np.empty(N)
+    processed = np.empty(N, dtype=bool)
+    status = doppler_step(t0, t1, x, P, q, *propagation, stack.state_sources, c0, c1, stack.clock_q, stack.snc_psd,
+                          z1, Y, x_prop, P_prop, count_s, w.z, w.Yb, w.tt, w.delta,
+                          herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
+                          u.r_sc, u.v_mars, u.t_g, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
+                          w.h, w.H, scale, sigma, _clock_variance(stack, count_s)[0], w.R,
+                          value, does, gate, residual, x_new, P_new, S, chi2, processed)
+    stack.end_leg(t1, x, z1, q, Y, x_prop, P_prop)
+    if status != 0:
+        return None
+    stack.x = x_new
+    stack.P = P_new
+    return residual, S, chi2, processed
 
 
 
@@ -132,6 +196,10 @@ class RangeModel:
     def added_variance(self, stack: EKFStack, meas: Measurement) -> np.ndarray | None:
         return None
 
+    def step(self, stack: EKFStack, meas: Measurement, t1: float, value: np.ndarray, sigma: np.ndarray,
+             scale: np.ndarray, does: np.ndarray, gate: np.ndarray) -> None:
+        return None
+
 
 class DopplerModel:
     """One-way uplink Doppler over the count interval ending at the time tag."""
@@ -148,3 +216,8 @@ class DopplerModel:
 
     def added_variance(self, stack: EKFStack, meas: Measurement) -> np.ndarray | None:
         return doppler_clock_variance(stack, count_time(meas))
+
+    def step(self, stack: EKFStack, meas: Measurement, t1: float, value: np.ndarray, sigma: np.ndarray,
+             scale: np.ndarray, does: np.ndarray, gate: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        return doppler_count_step(stack, meas.source, t1, count_time(meas), value, float(sigma[0]), scale, does, gate)

@@ -4,8 +4,9 @@ Importing this package fixes where numba keeps its on-disk cache *before* numba 
 (:mod:`fsw.kernels.cache`). Each kernel module compiles its kernels with explicit signatures and
 ``cache=True``: the machine code is compiled (first process) or loaded from the cache when the
 module is imported, and an argument of another dtype or rank is a ``TypeError`` instead of a
-silent recompilation in the hot loop. A kernel calls only helpers of its own module: numba does
-not invalidate a cached caller when an njit helper in another module changes.
+silent recompilation in the hot loop. A fused kernel may call the kernels of other modules: every
+cached kernel is stamped with all the kernels' sources (:func:`stamp_with_all_kernel_sources`),
+since numba's own stamp (the function's file) would keep a caller's stale copy of a changed callee.
 
 The measurement models sit under the configuration (the kinds they model are what a filter may
 process), and every process that reads a scenario imports them: the launcher, the simulator,
@@ -20,7 +21,7 @@ from __future__ import annotations
 import importlib
 from typing import Any, Callable
 
-from fsw.kernels.cache import configure_cache_dir
+from fsw.kernels.cache import configure_cache_dir, stamp_with_all_kernel_sources
 
 configure_cache_dir()
 
@@ -56,4 +57,4 @@ def load_all() -> None:
             _bind(namespace, name, module)
 
 
-__all__ = ["configure_cache_dir", "load_all", "on_first_call"]
+__all__ = ["configure_cache_dir", "load_all", "on_first_call", "stamp_with_all_kernel_sources"]

@@ -16,10 +16,11 @@ import math
 import numpy as np
 from numba import njit
 
-from fsw.kernels import configure_cache_dir
+from fsw.kernels import configure_cache_dir, stamp_with_all_kernel_sources
 from fsw.kernels.codes import AT_TARGET, BEHIND_CAMERA, OK
 
 configure_cache_dir()
+stamp_with_all_kernel_sources()
 
 
 @njit("int64(float64[:, ::1], float64[:, ::1], float64[::1], float64[::1], float64[:, ::1], float64[::1], "

@@ -15,9 +15,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from fsw.kernels import configure_cache_dir
+from fsw.kernels import configure_cache_dir, stamp_with_all_kernel_sources
 
 configure_cache_dir()
+stamp_with_all_kernel_sources()
 
 
 @njit("void(float64[:, :, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1], "

@@ -17,9 +17,10 @@ from __future__ import annotations
 
 from numba import njit
 
-from fsw.kernels import configure_cache_dir
+from fsw.kernels import configure_cache_dir, stamp_with_all_kernel_sources
 
 configure_cache_dir()
+stamp_with_all_kernel_sources()
 
 
 @njit("void(float64[:, ::1], float64[:, :, ::1], float64[:, ::1], float64[::1], float64[:, :, ::1], "

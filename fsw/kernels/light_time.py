@@ -23,9 +23,10 @@ import math
 import numpy as np
 from numba import njit
 
-from fsw.kernels import configure_cache_dir
+from fsw.kernels import configure_cache_dir, stamp_with_all_kernel_sources
 
 configure_cache_dir()
+stamp_with_all_kernel_sources()
 
 _SUN, _EARTH, _MARS = 0, 3, 4
 

@@ -24,9 +24,10 @@ import math
 import numpy as np
 from numba import njit
 
-from fsw.kernels import configure_cache_dir
+from fsw.kernels import configure_cache_dir, stamp_with_all_kernel_sources
 
 configure_cache_dir()
+stamp_with_all_kernel_sources()
 
 _SUN, _EMB, _JUPITER, _MARS = 0, 1, 2, 4
 

@@ -20,7 +20,7 @@ arrays cost ~170 µs of call overhead for ~6 kFLOP).
 
 from __future__ import annotations
 
-from typing import Literal, overload
+from typing import Any, Literal, overload
 
 import numpy as np
 
@@ -92,8 +92,13 @@ class Propagator:
                     with_stm: bool = True) -> None:
         """:meth:`propagate` in place for the hot loop: z = [r, v] (N, 6) from t0 to t1, Y (N, 6, 6 + n_q)
         filled (with ``with_stm``); z, q and Y float64 and C-contiguous."""
+        args = (t0, t1, z, q, with_stm, *self.kernel_arguments(t0, t1), Y)
+        rk4_variational(*args)
+
+    def kernel_arguments(self, t0: float, t1: float) -> tuple[Any, ...]:
+        """The arguments of :func:`~fsw.kernels.variational_rk4.rk4_variational` between ``with_stm``
+        and ``Y`` for a leg from t0 to t1: the force parameters and the ephemeris table covering it."""
         lo, hi = (t0, t1) if t0 <= t1 else (t1, t0)
         p_tab, v_tab, tab_t0, tab_step = self.env.table_nodes(lo, hi)
-        rk4_variational(t0, t1, z, q, with_stm, self._srp, self._acs_nominal, self._acs_body, self._deg,
-                        self._poly_batch, self._poly_origin, self.kappa, self.max_step, self.frozen_gradient_tol,
-                        p_tab, v_tab, tab_t0, tab_step, _GM, Y)
+        return (self._srp, self._acs_nominal, self._acs_body, self._deg, self._poly_batch, self._poly_origin,
+                self.kappa, self.max_step, self.frozen_gradient_tol, p_tab, v_tab, tab_t0, tab_step, _GM)
