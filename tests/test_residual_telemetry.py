@@ -64,6 +64,13 @@ def test_core_reports_every_filtered_measurement_once_in_few_messages():
     assert all(r.filters == res[0].filters for r in res)
     bplanes = [msg for t, msg in run.messages if t == "fsw/bplane/combined"]
     assert len(bplanes) >= 3 and all(b.v_inf_km_s > 1.0 for b in bplanes)
+    # the best estimate is one filter's: its targeting is that filter's, relabelled
+    import dataclasses
+
+    per_filter = {(msg.t_s, dataclasses.replace(msg, filter="best")) for t, msg in run.messages
+                  if t.startswith("fsw/bplane/") and t.rsplit("/", 1)[1] in res[0].filters}
+    best = [msg for t, msg in run.messages if t == "fsw/bplane/best"]
+    assert len(best) == len(bplanes) and all(b.filter == "best" and (b.t_s, b) in per_filter for b in best)
 
 
 def test_campaign_report_pools_nis_over_runs_weighted_by_counts():

@@ -23,6 +23,7 @@ skipped; a stage that raises is contained and counted by the executive.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import gc
 import time
 from typing import Callable, ClassVar, cast
@@ -455,8 +456,14 @@ class FswCore:
             return
         while self._next_bplane <= t:
             self._next_bplane += every
+        # "best" is one of the filters' own estimates: its targeting is that filter's, relabelled
+        done: dict[int, m.BPlane | None] = {}
         for label, est in ests.items():
-            msg = bplane_message(est, label)
+            if id(est) in done:
+                same = done[id(est)]
+                msg = None if same is None else dataclasses.replace(same, filter=label)
+            else:
+                msg = done[id(est)] = bplane_message(est, label)
             if msg is not None:
                 self._emit(f"{topics.FSW_BPLANE}/{label}", msg)
 
