@@ -1,8 +1,14 @@
-"""The whole-count Doppler step (one compiled call) against the bank's step by step path, to the bit."""
+"""The whole-count Doppler step (compiled) against the bank's step by step path, to the bit: counts
+that span the leg just flown, counts that began before it (a range measurement came between),
+counts at the epoch the bank is at already, and counts whose transmit epochs need another
+station node."""
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
 from collections import Counter
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -10,14 +16,38 @@ import pytest
 import fsw.filters.radiometric_kinds as rk
 from fsw.filters.bank import FilterBank
 from fsw.filters.presets import preset
-from fsw.kernels.doppler_step import doppler_step
+from fsw.kernels.doppler_step import doppler_finish, doppler_step
 from fsw.models.environment import Environment
+from sim.config import SimConfig
+from sim.stream import generate
 from tools.bench.synthetic import make_run
 
 
+@dataclass(frozen=True)
+class Stream:
+    t0: float
+    position_km: np.ndarray
+    velocity_km_s: np.ndarray
+    measurements: tuple
+
+
+#: What each stream exercises: the synthetic one has a range measurement between Doppler counts
+#: (and a station node boundary), the simulator's a range measurement at a count's time tag.
+CASES = {
+    "synthetic": ("leg flown, start from it", "leg flown, start propagated back", "another station node"),
+    "simulator": ("leg flown, start from it", "leg held, start from it"),
+}
+
+
 @pytest.fixture(scope="module")
-def run():
-    return make_run(span_days=2.0, max_measurements=400, env=Environment())
+def streams() -> dict[str, Stream]:
+    synthetic = make_run(span_days=2.0, max_measurements=400, env=Environment())
+    cfg = SimConfig()
+    sim = generate(dataclasses.replace(cfg, trajectory=dataclasses.replace(cfg.trajectory, span_days=2.0)), seed=1)
+    truth = sim.truth_at(sim.t_start)
+    return {"synthetic": Stream(synthetic.t0, synthetic.position_km, synthetic.velocity_km_s, synthetic.measurements),
+            "simulator": Stream(sim.t_start, np.array(truth.position_km), np.array(truth.velocity_km_s),
+                                tuple(sim.measurements[:400]))}
 
 
 def _bank(run, name: str) -> FilterBank:
@@ -26,15 +56,27 @@ def _bank(run, name: str) -> FilterBank:
                       run.velocity_km_s + rng.normal(0, 2e-5, 3), env=Environment())
 
 
+_PARAMETERS = list(inspect.signature(doppler_step.py_func).parameters)
+_FLY, _FROM_LEG = _PARAMETERS.index("fly"), _PARAMETERS.index("from_leg")
+
+
 def _fly(run, name: str, commands, monkeypatch, fused: bool):
     statuses: Counter[str] = Counter()
     with monkeypatch.context() as mp:
         if fused:
             def counted(*args):
                 status = doppler_step(*args)
-                statuses["done" if status == 0 else "leg only"] += 1
+                case = ("leg flown" if args[_FLY] else "leg held") + (", start from it" if args[_FROM_LEG] else
+                                                                      ", start propagated back")
+                statuses[case] += 1
+                statuses["another station node"] += status
                 return status
+
+            def finished(*args):
+                statuses["finished"] += 1
+                return doppler_finish(*args)
             mp.setattr(rk, "doppler_step", counted)
+            mp.setattr(rk, "doppler_finish", finished)
         else:
             mp.setattr(rk.DopplerModel, "step", lambda self, *args: None)
         bank = _bank(run, name)
@@ -47,6 +89,7 @@ def _fly(run, name: str, commands, monkeypatch, fused: bool):
     return bank, records, statuses
 
 
+@pytest.mark.parametrize("stream", list(CASES))
 @pytest.mark.parametrize("name, commands", [
     ("nominal", []),
     ("acs-q", []),  # six filters, stochastic batches (the leg splits at their boundaries)
@@ -55,12 +98,17 @@ def _fly(run, name: str, commands, monkeypatch, fused: bool):
                  (200, lambda b: b.set_enabled("fused", True)),
                  (220, lambda b: b.set_param("radio", "sigma_scale.doppler", 1.7))]),
 ])
-def test_the_compiled_count_step_gives_the_step_by_step_results_to_the_bit(run, monkeypatch, name, commands):
+def test_the_compiled_count_step_gives_the_step_by_step_results_to_the_bit(streams, monkeypatch, stream, name,
+                                                                           commands):
+    run = streams[stream]
     bank_a, recs_a, statuses = _fly(run, name, commands, monkeypatch, fused=True)
     bank_b, recs_b, _ = _fly(run, name, commands, monkeypatch, fused=False)
     dopplers = sum(m.kind == "doppler" for m in run.measurements)
-    # most counts went through the compiled step, and some needed another station node half way
-    assert statuses["done"] > 0.6 * dopplers and statuses["leg only"] > 0, statuses
+    # nearly every count went through the compiled step, by each of its ways
+    compiled = sum(v for k, v in statuses.items() if k.startswith("leg"))
+    assert compiled > 0.9 * dopplers, statuses
+    assert all(statuses[case] > 0 for case in CASES[stream]), statuses
+    assert statuses["finished"] == statuses["another station node"], statuses
     for a, b in zip(recs_a, recs_b):
         assert (a.t, a.seq, a.kind) == (b.t, b.seq, b.kind)
         for field in ("residual", "S", "chi2", "processed", "active"):
@@ -71,14 +119,21 @@ def test_the_compiled_count_step_gives_the_step_by_step_results_to_the_bit(run, 
         assert any(not r.processed[0] for r in recs_a[60:] if r.kind == "doppler")  # the gate edited some
 
 
-def test_the_step_leaves_counts_it_cannot_take_to_the_bank(run):
-    """A count that does not span the leg from the bank's epoch is not the step's: None, bank untouched."""
+def test_the_step_leaves_counts_it_cannot_take_to_the_bank(streams):
+    """A count ending at the bank's epoch that does not span the leg that brought the bank there is
+    not the step's: None, the bank untouched (the step by step path propagates its start back)."""
+    run = streams["synthetic"]
     bank = _bank(run, "nominal")
-    first = next(m for m in run.measurements if m.kind == "doppler")
+    ms = iter(run.measurements)
+    first = next(m for m in ms if m.kind == "doppler" and bank.process(m) is not None)
+    for m in ms:
+        bank.process(m)
+        if m.kind == "doppler":
+            break
     stack = bank.stack
+    assert stack.env.last_station_node(first.source) is not None  # the step would not refuse for want of it
     x, P, t = stack.x.copy(), stack.P.copy(), stack.t
-    scale = np.ones(len(bank.names))
-    out = rk.doppler_count_step(stack, first.source, first.t_s + 10.0 * first.count_time_s, first.count_time_s,
-                                np.array(first.value), first.sigma[0], scale, np.ones(len(bank.names), dtype=bool),
-                                np.full(len(bank.names), np.inf))
+    N = len(bank.names)
+    out = rk.doppler_count_step(stack, first.source, t, 7.0 * first.count_time_s, np.array(first.value), first.sigma[0],
+                                np.ones(N), np.ones(N, dtype=bool), np.full(N, np.inf))
     assert out is None and stack.t == t and np.array_equal(stack.x, x) and np.array_equal(stack.P, P)

@@ -55,7 +55,7 @@ from fsw.kernels import (camera, count_start, doppler, doppler_step, joseph_upda
 kernels = [variational_rk4.rk4_variational, time_update.time_update, joseph_update.joseph_update,
            light_time.uplink_reception, light_time.uplink_light_time, light_time.uplink_solution,
            count_start.count_start_from_leg,
-           doppler.doppler_prediction, doppler_step.doppler_step, camera.pinhole_image]
+           doppler.doppler_prediction, doppler_step.doppler_step, doppler_step.doppler_finish, camera.pinhole_image]
 assert all(len(k.signatures) == 1 and k._can_compile is False for k in kernels), [k.signatures for k in kernels]
 print("ok")
 """

@@ -405,8 +405,8 @@ class EKFStack:
             q = self.drivers(xc)
             if xc is self.x:
                 self._q_known = (xc, q)
-        if leg is not None and x is self.x and leg[1] == self.t == t and abs(leg[0] - (t - count_s)) < 1e-6:
-            _, _, x0, z1, q_leg, Y = leg
+        if self._count_spans_leg(x, t, count_s):
+            _, _, x0, z1, q_leg, Y = leg  # type: ignore[misc]
             if Yb is None or Yb.shape != Y.shape:
                 Yb = np.empty(Y.shape)
             # the kernel reads the first six columns of the states x0 and x
@@ -417,6 +417,30 @@ class EKFStack:
             Yb = np.empty((x.shape[0], 6, 6 + q.shape[1]))
         self.propagator.propagate_z(t, t - count_s, z_start, q, Yb)
         return Yb
+
+    def _count_spans_leg(self, x: np.ndarray, t: float, count_s: float) -> bool:
+        """Whether a count of T = ``count_s`` ending at t, for the stack's own states x, spans the
+        last leg (so the leg's STM gives its start)."""
+        leg = self._last_leg
+        return leg is not None and x is self.x and leg[1] == self.t == t and abs(leg[0] - (t - count_s)) < 1e-6
+
+    def held_leg(self, t: float, count_s: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """For a count of T = ``count_s`` ending at the current epoch t, when nothing is to be flown
+        first (:meth:`propagate_to` t would change nothing) and the count spans the last leg: that
+        leg's start state, end [r, v], drivers and sensitivity, and the current state's drivers
+        (x0, z1, q_leg, Y, q), as :meth:`count_start` uses them. None otherwise."""
+        if not (t == self.t and t < self._next_event and t <= self._event_horizon) or self._any_adaptive:
+            return None
+        x = self.x
+        if not (x.flags.c_contiguous and self.P.flags.c_contiguous) or not self._count_spans_leg(x, t, count_s):
+            return None
+        known, q = self._q_known
+        if known is not x:
+            q = self.drivers(x)
+            self._q_known = (x, q)
+        _, _, x0, z1, q_leg, Y = self._last_leg  # type: ignore[misc]
+        return x0, z1, q_leg, Y, q
 
     @property
     def cameras(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -25,6 +25,7 @@ from fsw.models.radiometric import solve_uplinks
 
 doppler_prediction = on_first_call(globals(), "doppler_prediction", "fsw.kernels.doppler")
 doppler_step = on_first_call(globals(), "doppler_step", "fsw.kernels.doppler_step")
+doppler_finish = on_first_call(globals(), "doppler_finish", "fsw.kernels.doppler_step")
 
 if TYPE_CHECKING:
     from fsw.filters.ekf import EKFStack
@@ -109,58 +110,82 @@ _last_clock_variance: list[tuple[tuple[float, bytes], tuple[np.ndarray, np.ndarr
 def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float, value: np.ndarray, sigma: float,
                        scale: np.ndarray, does: np.ndarray, gate: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
-    """A Doppler count through the bank in one compiled call (:func:`fsw.kernels.doppler_step.doppler_step`):
-    the leg from the bank's epoch to the time tag t1, the prediction of :func:`predict_doppler`, R
+    """A Doppler count through the bank in compiled code (:mod:`fsw.kernels.doppler_step`): the leg
+    from the bank's epoch to the time tag t1, the prediction of :func:`predict_doppler`, R
     (reported ``sigma`` times each filter's ``scale``, squared, plus :func:`doppler_clock_variance`)
     and the Joseph update of the filters that ``does`` under their chi-square ``gate`` (inf: no
     editing). Returns (residual, S, chi2, processed) as :meth:`EKFStack.update` does.
 
-    It applies when the count spans exactly that leg (a count per count interval), the leg is a
-    plain one (:meth:`EKFStack.plain_leg`) and the station node the last light time solution used
-    is this station's. Otherwise it returns None with the bank untouched, or — the transmit epochs
-    needing another table or node — with the leg flown and the rest left to the step by step path
-    (whose time update is then a no-op)."""
-    t0 = stack.t
-    start = t1 - count_s
-    if abs(t0 - start) >= 1e-6:  # the count does not begin at the bank's epoch
-        return None
+    It applies when the station node the last light-time solution used is this station's and the
+    leg to t1 is a plain one (:meth:`EKFStack.plain_leg`) — or the bank is at t1 already and the
+    count spans the leg that brought it there (:meth:`EKFStack.held_leg`); otherwise it returns
+    None with the bank untouched. The count's start comes from the leg when the count spans it,
+    else it is propagated back (as :meth:`EKFStack.count_start` does); transmit epochs that need
+    another table or node are looked up between the two kernels, as
+    :func:`~fsw.models.radiometric.solve_uplinks` looks them up."""
     env = stack.env
     last = env.last_station_node(station)
     if last is None:
         return None
-    leg = stack.plain_leg(t1)
-    if leg is None:
-        return None
-    x, P, q = leg
-    N, n = x.shape
-    propagation = stack.propagator.kernel_arguments(t0, t1)
+    t0 = stack.t
+    start = t1 - count_s
+    prop = stack.propagator
+    w = stack.doppler_work
+    N, n = stack.x.shape
+    fly = t1 != t0
+    if fly:
+        leg = stack.plain_leg(t1)
+        if leg is None:
+            return None
+        x, P, q = leg
+        q_leg = q
+        table = prop.table(t0, t1)
+        from_leg = abs(t0 - start) < 1e-6
+        back = table if from_leg else prop.table(t1, start)
+        z1 = np.empty((N, 6))
+        Y = np.empty(w.Yb.shape)
+        x_prop = np.empty((N, n))
+        P_prop = np.empty((N, n, n))
+    else:
+        held = stack.held_leg(t1, count_s)
+        if held is None:
+            return None
+        x, z1, q_leg, Y, q = held
+        x_prop, P = stack.x, stack.P
+        P_prop = P
+        table = back = (w.z, w.z, 0.0, 1.0)  # nothing is flown: not read
+        from_leg = True
     herm, t_first, step, lo_ok, hi_ok = env.hermite_window(min(t1, start) - 1.0, max(t1, start) + 1.0)
     c0, c1 = stack.clock_columns or (0, 0)
-    w = stack.doppler_work
     u = w.uplinks
-    z1 = np.empty((N, 6))
-    Y = np.empty(w.Yb.shape)
-    x_prop = np.empty((N, n))
-    P_prop = np.empty((N, n, n))
     residual = np.empty((N, 1))
     x_new = np.empty((N, n))
     P_new = np.empty((N, n, n))
     S = np.empty((N, 1, 1))
     chi2 = np.empty(N)
     processed = np.empty(N, dtype=bool)
-    status = doppler_step(t0, t1, x, P, q, *propagation, stack.state_sources, c0, c1, stack.clock_q, stack.snc_psd,
+    added = _clock_variance(stack, count_s)[0]
+    src = stack.state_sources
+    status = doppler_step(fly, t0, t1, x, P, q, q_leg, *prop.forces, *table, prop.GM, from_leg, *back,
+                          src, c0, c1, stack.clock_q, stack.snc_psd,
                           z1, Y, x_prop, P_prop, count_s, w.z, w.Yb, w.tt, w.delta,
                           herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
                           u.r_sc, u.v_mars, u.t_g, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
-                          w.h, w.H, scale, sigma, _clock_variance(stack, count_s)[0], w.R,
+                          w.h, w.H, scale, sigma, added, w.R,
                           value, does, gate, residual, x_new, P_new, S, chi2, processed)
-    stack.end_leg(t1, x, z1, q, Y, x_prop, P_prop)
+    if fly:
+        stack.end_leg(t1, x, z1, q, Y, x_prop, P_prop)
     if status != 0:
-        return None
+        tg = u.t_g.tolist()
+        herm, t_first, step = env.hermite_nodes(min(tg) - 1.0, max(tg) + 1.0)
+        node, t_grid = env.station_node(station, tg[0])
+        doppler_finish(w.tt, u.t_g, u.r_sc, w.z, u.v_mars, w.delta, herm, t_first, step, node, t_grid,
+                       OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
+                       w.Yb, x_prop, P_prop, count_s, src, c0, c1, w.h, w.H, scale, sigma, added, w.R,
+                       value, does, gate, residual, x_new, P_new, S, chi2, processed)
     stack.x = x_new
     stack.P = P_new
     return residual, S, chi2, processed
-
 
 
 def _check_station(meas: Measurement, env: Environment) -> None:

@@ -92,13 +92,21 @@ class Propagator:
                     with_stm: bool = True) -> None:
         """:meth:`propagate` in place for the hot loop: z = [r, v] (N, 6) from t0 to t1, Y (N, 6, 6 + n_q)
         filled (with ``with_stm``); z, q and Y float64 and C-contiguous."""
-        args = (t0, t1, z, q, with_stm, *self.kernel_arguments(t0, t1), Y)
+        args = (t0, t1, z, q, with_stm, *self.forces, *self.table(t0, t1), _GM, Y)
         rk4_variational(*args)
 
-    def kernel_arguments(self, t0: float, t1: float) -> tuple[Any, ...]:
-        """The arguments of :func:`~fsw.kernels.variational_rk4.rk4_variational` between ``with_stm``
-        and ``Y`` for a leg from t0 to t1: the force parameters and the ephemeris table covering it."""
-        lo, hi = (t0, t1) if t0 <= t1 else (t1, t0)
-        p_tab, v_tab, tab_t0, tab_step = self.env.table_nodes(lo, hi)
+    @property
+    def forces(self) -> tuple[Any, ...]:
+        """The force model's arguments of :func:`~fsw.kernels.variational_rk4.rk4_variational`
+        (``srp`` to ``frozen_tol``)."""
         return (self._srp, self._acs_nominal, self._acs_body, self._deg, self._poly_batch, self._poly_origin,
-                self.kappa, self.max_step, self.frozen_gradient_tol, p_tab, v_tab, tab_t0, tab_step, _GM)
+                self.kappa, self.max_step, self.frozen_gradient_tol)
+
+    def table(self, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """The ephemeris table covering a leg from t0 to t1 as the kernel reads it (``tab_p`` to
+        ``tab_step``)."""
+        lo, hi = (t0, t1) if t0 <= t1 else (t1, t0)
+        return self.env.table_nodes(lo, hi)
+
+    #: [μ_Mars, μ_Sun, μ_EMB, μ_Jupiter], the kernel's ``gm``.
+    GM = _GM
