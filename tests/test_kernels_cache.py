@@ -50,12 +50,13 @@ def test_kernels_are_compiled_before_the_core_starts():
 import numba.core.dispatcher as d
 from fsw.config import FswConfig
 from fsw.core.fswcore import FswCore
-from fsw.kernels import (camera, count_start, doppler, doppler_step, joseph_update, light_time, time_update,
+from fsw.kernels import (camera, count_start, doppler, joseph_update, light_time, radiometric_step, time_update,
                          variational_rk4)
 kernels = [variational_rk4.rk4_variational, time_update.time_update, joseph_update.joseph_update,
            light_time.uplink_reception, light_time.uplink_light_time, light_time.uplink_solution,
            count_start.count_start_from_leg,
-           doppler.doppler_prediction, doppler_step.doppler_step, doppler_step.doppler_finish, camera.pinhole_image]
+           doppler.doppler_prediction, camera.pinhole_image, radiometric_step.doppler_step,
+           radiometric_step.doppler_finish, radiometric_step.range_step, radiometric_step.range_finish]
 assert all(len(k.signatures) == 1 and k._can_compile is False for k in kernels), [k.signatures for k in kernels]
 print("ok")
 """
@@ -73,10 +74,10 @@ def _sha_of_sources(directory: Path) -> str:
 def test_every_kernel_is_stamped_with_all_the_kernel_sources():
     """A fused kernel carries copies of the kernels it calls: its cache must go stale when any
     kernel's source changes, not only its own file."""
-    from fsw.kernels import doppler_step, joseph_update, variational_rk4
+    from fsw.kernels import joseph_update, radiometric_step, variational_rk4
 
     expected = _sha_of_sources(ROOT / "fsw" / "kernels")
-    for kernel in (doppler_step.doppler_step, joseph_update.joseph_update, variational_rk4.rk4_variational):
+    for kernel in (radiometric_step.doppler_step, joseph_update.joseph_update, variational_rk4.rk4_variational):
         locator = kernel._cache._impl._locator
         assert isinstance(locator, tuple(cache.LOCATORS)), type(locator)
         assert locator.get_source_stamp() == expected

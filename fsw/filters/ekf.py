@@ -108,12 +108,18 @@ class DopplerWork:
 
 class RangeWork:
     """Arrays a range prediction fills for every measurement (read before the next one): the
-    filters' [r, v] (1, N, 6) at the reception epoch, that epoch and the light-time solution."""
+    filters' [r, v] (1, N, 6) at the reception epoch, that epoch and the light-time solution; for
+    the whole-measurement step (:func:`fsw.filters.radiometric_kinds.range_measurement_step`) also
+    the clock phase δ, h (N, 1), H (N, 1, n) and R (N, 1, 1)."""
 
-    def __init__(self, N: int):
+    def __init__(self, N: int, n: int):
         self.z = np.empty((1, N, 6))
         self.tt = np.empty(1)
         self.uplinks = UplinkWork(1, N)
+        self.delta = np.empty(N)
+        self.h = np.empty((N, 1))
+        self.H = np.empty((N, 1, n))
+        self.R = np.empty((N, 1, 1))
 
 
 class EKFStack:
@@ -239,7 +245,7 @@ class EKFStack:
         self._any_adaptive = any(aq is not None for aq in self.adaptive_q)
         self._no_gate = np.full(N, np.inf)
         self.doppler_work = DopplerWork(N, nq, L.n)
-        self.range_work = RangeWork(N)
+        self.range_work = RangeWork(N, L.n)
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:

@@ -21,11 +21,13 @@ from fsw.interface import kinds
 from fsw.interface.messages import Measurement
 from fsw.models.environment import Environment
 from fsw.kernels import on_first_call
-from fsw.models.radiometric import solve_uplinks
+from fsw.models.radiometric import solve_uplinks, transmit_tables
 
 doppler_prediction = on_first_call(globals(), "doppler_prediction", "fsw.kernels.doppler")
-doppler_step = on_first_call(globals(), "doppler_step", "fsw.kernels.doppler_step")
-doppler_finish = on_first_call(globals(), "doppler_finish", "fsw.kernels.doppler_step")
+doppler_step = on_first_call(globals(), "doppler_step", "fsw.kernels.radiometric_step")
+doppler_finish = on_first_call(globals(), "doppler_finish", "fsw.kernels.radiometric_step")
+range_step = on_first_call(globals(), "range_step", "fsw.kernels.radiometric_step")
+range_finish = on_first_call(globals(), "range_finish", "fsw.kernels.radiometric_step")
 
 if TYPE_CHECKING:
     from fsw.filters.ekf import EKFStack
@@ -107,11 +109,22 @@ def _clock_variance(stack: EKFStack, count_s: float) -> tuple[np.ndarray, np.nda
 _last_clock_variance: list[tuple[tuple[float, bytes], tuple[np.ndarray, np.ndarray]] | None] = [None]
 
 
+def _leg_arrays(N: int, n: int, nq: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """z1 (N, 6), Y (N, 6, 6 + n_q), x (N, n), P (N, n, n) for a leg a compiled step flies."""
+    return np.empty((N, 6)), np.empty((N, 6, 6 + nq)), np.empty((N, n)), np.empty((N, n, n))
+
+
+def _update_arrays(N: int, n: int) -> tuple[np.ndarray, ...]:
+    """residual (N, 1), x⁺, P⁺, S (N, 1, 1), chi2, processed of a scalar measurement's update."""
+    return (np.empty((N, 1)), np.empty((N, n)), np.empty((N, n, n)), np.empty((N, 1, 1)), np.empty(N),
+            np.empty(N, dtype=bool))
+
+
 def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float, value: np.ndarray, sigma: float,
                        scale: np.ndarray, does: np.ndarray, gate: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
-    """A Doppler count through the bank in compiled code (:mod:`fsw.kernels.doppler_step`): the leg
-    from the bank's epoch to the time tag t1, the prediction of :func:`predict_doppler`, R
+    """A Doppler count through the bank in compiled code (:mod:`fsw.kernels.radiometric_step`): the
+    leg from the bank's epoch to the time tag t1, the prediction of :func:`predict_doppler`, R
     (reported ``sigma`` times each filter's ``scale``, squared, plus :func:`doppler_clock_variance`)
     and the Joseph update of the filters that ``does`` under their chi-square ``gate`` (inf: no
     editing). Returns (residual, S, chi2, processed) as :meth:`EKFStack.update` does.
@@ -142,10 +155,7 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
         table = prop.table(t0, t1)
         from_leg = abs(t0 - start) < 1e-6
         back = table if from_leg else prop.table(t1, start)
-        z1 = np.empty((N, 6))
-        Y = np.empty(w.Yb.shape)
-        x_prop = np.empty((N, n))
-        P_prop = np.empty((N, n, n))
+        z1, Y, x_prop, P_prop = _leg_arrays(N, n, q.shape[1])
     else:
         held = stack.held_leg(t1, count_s)
         if held is None:
@@ -158,31 +168,72 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
     herm, t_first, step, lo_ok, hi_ok = env.hermite_window(min(t1, start) - 1.0, max(t1, start) + 1.0)
     c0, c1 = stack.clock_columns or (0, 0)
     u = w.uplinks
-    residual = np.empty((N, 1))
-    x_new = np.empty((N, n))
-    P_new = np.empty((N, n, n))
-    S = np.empty((N, 1, 1))
-    chi2 = np.empty(N)
-    processed = np.empty(N, dtype=bool)
+    update = _update_arrays(N, n)
     added = _clock_variance(stack, count_s)[0]
     src = stack.state_sources
-    status = doppler_step(fly, t0, t1, x, P, q, q_leg, *prop.forces, *table, prop.GM, from_leg, *back,
-                          src, c0, c1, stack.clock_q, stack.snc_psd,
-                          z1, Y, x_prop, P_prop, count_s, w.z, w.Yb, w.tt, w.delta,
+    status = doppler_step(fly, t0, t1, x, P, q, *prop.forces, *table, prop.GM, q_leg, from_leg, *back,
+                          src, c0, c1, stack.clock_q, stack.snc_psd, z1, Y, x_prop, P_prop,
+                          count_s, w.z, w.Yb, w.tt, w.delta,
                           herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
                           u.r_sc, u.v_mars, u.t_g, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
-                          w.h, w.H, scale, sigma, added, w.R,
-                          value, does, gate, residual, x_new, P_new, S, chi2, processed)
+                          w.h, w.H, scale, sigma, added, w.R, value, does, gate, *update)
     if fly:
         stack.end_leg(t1, x, z1, q, Y, x_prop, P_prop)
     if status != 0:
-        tg = u.t_g.tolist()
-        herm, t_first, step = env.hermite_nodes(min(tg) - 1.0, max(tg) + 1.0)
-        node, t_grid = env.station_node(station, tg[0])
-        doppler_finish(w.tt, u.t_g, u.r_sc, w.z, u.v_mars, w.delta, herm, t_first, step, node, t_grid,
+        doppler_finish(w.tt, u.t_g, u.r_sc, w.z, u.v_mars, w.delta, *transmit_tables(env, station, u.t_g),
                        OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
                        w.Yb, x_prop, P_prop, count_s, src, c0, c1, w.h, w.H, scale, sigma, added, w.R,
-                       value, does, gate, residual, x_new, P_new, S, chi2, processed)
+                       value, does, gate, *update)
+    return _updated(stack, update)
+
+
+def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.ndarray, sigma: float,
+                           scale: np.ndarray, does: np.ndarray, gate: np.ndarray
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """A range measurement through the bank in compiled code (:mod:`fsw.kernels.radiometric_step`):
+    the leg from the bank's epoch to the time tag t1, the prediction of :func:`predict_range`, R
+    (``sigma`` times each filter's ``scale``, squared) and the Joseph update, as
+    :func:`doppler_count_step` for a count; None (the bank untouched) unless the station node the
+    last light-time solution used is this station's and the leg is a plain one."""
+    env = stack.env
+    last = env.last_station_node(station)
+    if last is None:
+        return None
+    leg = stack.plain_leg(t1)
+    if leg is None:
+        return None
+    x, P, q = leg
+    t0 = stack.t
+    prop = stack.propagator
+    table = prop.table(t0, t1)
+    herm, t_first, step, lo_ok, hi_ok = env.hermite_window(t1 - 1.0, t1 + 1.0)
+    clock = stack.clock_columns
+    c0, c1 = clock or (0, 0)
+    L = stack.layout
+    bias = L.slices["range_bias"].start if L.has("range_bias") else -1
+    w = stack.range_work
+    u = w.uplinks
+    N, n = x.shape
+    z1, Y, x_prop, P_prop = _leg_arrays(N, n, q.shape[1])
+    update = _update_arrays(N, n)
+    status = range_step(t0, t1, x, P, q, *prop.forces, *table, prop.GM,
+                        stack.state_sources, c0, c1, stack.clock_q, stack.snc_psd, z1, Y, x_prop, P_prop,
+                        w.z, w.tt, w.delta,
+                        herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
+                        u.r_sc, u.v_mars, u.t_g, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
+                        clock is not None, bias, w.h, w.H, scale, sigma, w.R, value, does, gate, *update)
+    stack.end_leg(t1, x, z1, q, Y, x_prop, P_prop)
+    if status != 0:
+        range_finish(w.tt, u.t_g, u.r_sc, w.z, u.v_mars, w.delta, *transmit_tables(env, station, u.t_g),
+                     OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
+                     x_prop, P_prop, clock is not None, c0, bias, w.h, w.H, scale, sigma, w.R,
+                     value, does, gate, *update)
+    return _updated(stack, update)
+
+
+def _updated(stack: EKFStack, update: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Take a compiled step's updated states into the stack; (residual, S, chi2, processed)."""
+    residual, x_new, P_new, S, chi2, processed = update
     stack.x = x_new
     stack.P = P_new
     return residual, S, chi2, processed
@@ -222,8 +273,9 @@ class RangeModel:
         return None
 
     def step(self, stack: EKFStack, meas: Measurement, t1: float, value: np.ndarray, sigma: np.ndarray,
-             scale: np.ndarray, does: np.ndarray, gate: np.ndarray) -> None:
-        return None
+             scale: np.ndarray, does: np.ndarray, gate: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        return range_measurement_step(stack, meas.source, t1, value, float(sigma[0]), scale, does, gate)
 
 
 class DopplerModel:

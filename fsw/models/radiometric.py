@@ -114,13 +114,21 @@ def solve_uplinks(env: Environment, station: str, tt: np.ndarray, z: np.ndarray,
             return w.rho, w.ku, w.d_rho_d_v, w.d_rho_d_delta
     else:
         uplink_reception(tt, z, delta, herm, t_first, step, C_KM_S, r_sc, v_mars, t_g)
-    tg = t_g.tolist()
-    herm, t_first, step = env.hermite_nodes(min(tg) - 1.0, max(tg) + 1.0)
-    node, t_grid = env.station_node(station, tg[0])
+    herm, t_first, step, node, t_grid = transmit_tables(env, station, t_g)
     rho, ku, d_rho_d_v, d_rho_d_delta = w.rho, w.ku, w.d_rho_d_v, w.d_rho_d_delta
     uplink_light_time(tt, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, OMEGA_EARTH_RAD_S,
                       GM_SUN, C_KM_S, iterations, rho, ku, d_rho_d_v, d_rho_d_delta)
     return rho, ku, d_rho_d_v, d_rho_d_delta
+
+
+def transmit_tables(env: Environment, station: str, t_g: np.ndarray) -> tuple[np.ndarray, float, float, np.ndarray, float]:
+    """The Hermite table (nodes, first epoch, step) and the station's grid node (node, epoch) that
+    serve the reference transmit epochs t_g (K,) of a light-time solution: the table covering them
+    with the lookup's 1 s margin, the node nearest the first."""
+    tg = t_g.tolist()
+    herm, t_first, step = env.hermite_nodes(min(tg) - 1.0, max(tg) + 1.0)
+    node, t_grid = env.station_node(station, tg[0])
+    return herm, t_first, step, node, t_grid
 
 
 def uplink(env: Environment, station: str, t_tag: float, r: np.ndarray, v: np.ndarray, delta: np.ndarray,

@@ -1,7 +1,7 @@
-"""The whole-count Doppler step (compiled) against the bank's step by step path, to the bit: counts
+"""The compiled radiometric steps against the bank's step by step path, to the bit. Doppler counts
 that span the leg just flown, counts that began before it (a range measurement came between),
-counts at the epoch the bank is at already, and counts whose transmit epochs need another
-station node."""
+counts at the epoch the bank is at already; range measurements; and both kinds with transmit
+epochs that need another station node."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import pytest
 import fsw.filters.radiometric_kinds as rk
 from fsw.filters.bank import FilterBank
 from fsw.filters.presets import preset
-from fsw.kernels.doppler_step import doppler_finish, doppler_step
+from fsw.kernels.radiometric_step import doppler_finish, doppler_step, range_finish, range_step
 from fsw.models.environment import Environment
 from sim.config import SimConfig
 from sim.stream import generate
@@ -36,6 +36,8 @@ class Stream:
 CASES = {
     "synthetic": ("leg flown, start from it", "leg flown, start propagated back", "another station node"),
     "simulator": ("leg flown, start from it", "leg held, start from it"),
+    # no count in the 20 minutes before every fourth range: its transmit epoch is past the last node's reach
+    "synthetic with gaps": ("range: another station node",),
 }
 
 
@@ -45,7 +47,11 @@ def streams() -> dict[str, Stream]:
     cfg = SimConfig()
     sim = generate(dataclasses.replace(cfg, trajectory=dataclasses.replace(cfg.trajectory, span_days=2.0)), seed=1)
     truth = sim.truth_at(sim.t_start)
+    ranges = [m.t_s for m in synthetic.measurements if m.kind == "range"][::4]
+    gaps = tuple(m for m in synthetic.measurements
+                 if m.kind != "doppler" or not any(0.0 <= t - m.t_s < 1200.0 for t in ranges))
     return {"synthetic": Stream(synthetic.t0, synthetic.position_km, synthetic.velocity_km_s, synthetic.measurements),
+            "synthetic with gaps": Stream(synthetic.t0, synthetic.position_km, synthetic.velocity_km_s, gaps),
             "simulator": Stream(sim.t_start, np.array(truth.position_km), np.array(truth.velocity_km_s),
                                 tuple(sim.measurements[:400]))}
 
@@ -75,10 +81,23 @@ def _fly(run, name: str, commands, monkeypatch, fused: bool):
             def finished(*args):
                 statuses["finished"] += 1
                 return doppler_finish(*args)
+
+            def ranged(*args):
+                status = range_step(*args)
+                statuses["range"] += 1
+                statuses["range: another station node"] += status
+                return status
+
+            def range_finished(*args):
+                statuses["range finished"] += 1
+                return range_finish(*args)
             mp.setattr(rk, "doppler_step", counted)
             mp.setattr(rk, "doppler_finish", finished)
+            mp.setattr(rk, "range_step", ranged)
+            mp.setattr(rk, "range_finish", range_finished)
         else:
             mp.setattr(rk.DopplerModel, "step", lambda self, *args: None)
+            mp.setattr(rk.RangeModel, "step", lambda self, *args: None)
         bank = _bank(run, name)
         records = []
         for k, m in enumerate(run.measurements):
@@ -98,17 +117,19 @@ def _fly(run, name: str, commands, monkeypatch, fused: bool):
                  (200, lambda b: b.set_enabled("fused", True)),
                  (220, lambda b: b.set_param("radio", "sigma_scale.doppler", 1.7))]),
 ])
-def test_the_compiled_count_step_gives_the_step_by_step_results_to_the_bit(streams, monkeypatch, stream, name,
+def test_the_compiled_steps_give_the_step_by_step_results_to_the_bit(streams, monkeypatch, stream, name,
                                                                            commands):
     run = streams[stream]
     bank_a, recs_a, statuses = _fly(run, name, commands, monkeypatch, fused=True)
     bank_b, recs_b, _ = _fly(run, name, commands, monkeypatch, fused=False)
     dopplers = sum(m.kind == "doppler" for m in run.measurements)
-    # nearly every count went through the compiled step, by each of its ways
+    ranges = sum(m.kind == "range" for m in run.measurements)
+    # nearly every count and range went through the compiled steps, by each of their ways
     compiled = sum(v for k, v in statuses.items() if k.startswith("leg"))
-    assert compiled > 0.9 * dopplers, statuses
+    assert compiled > 0.8 * dopplers and statuses["range"] > 0.8 * ranges > 0, (statuses, ranges)
     assert all(statuses[case] > 0 for case in CASES[stream]), statuses
     assert statuses["finished"] == statuses["another station node"], statuses
+    assert statuses["range finished"] == statuses["range: another station node"], statuses
     for a, b in zip(recs_a, recs_b):
         assert (a.t, a.seq, a.kind) == (b.t, b.seq, b.kind)
         for field in ("residual", "S", "chi2", "processed", "active"):
