@@ -50,12 +50,13 @@ def test_kernels_are_compiled_before_the_core_starts():
 import numba.core.dispatcher as d
 from fsw.config import FswConfig
 from fsw.core.fswcore import FswCore
-from fsw.kernels import (camera, count_start, doppler, joseph_update, light_time, radiometric_step, time_update,
+from fsw.kernels import (camera, count_start, doppler, joseph_update, light_time, one_way_range, radiometric_step,
+                         time_update,
                          variational_rk4)
 kernels = [variational_rk4.rk4_variational, time_update.time_update, joseph_update.joseph_update,
            light_time.uplink_reception, light_time.uplink_light_time, light_time.uplink_solution,
            count_start.count_start_from_leg,
-           doppler.doppler_prediction, camera.pinhole_image, radiometric_step.doppler_step,
+           doppler.doppler_prediction, one_way_range.range_prediction, camera.pinhole_image, radiometric_step.doppler_step,
            radiometric_step.doppler_finish, radiometric_step.range_step, radiometric_step.range_finish]
 assert all(len(k.signatures) == 1 and k._can_compile is False for k in kernels), [k.signatures for k in kernels]
 print("ok")

@@ -24,6 +24,7 @@ from fsw.kernels import on_first_call
 from fsw.models.radiometric import solve_uplinks, transmit_tables
 
 doppler_prediction = on_first_call(globals(), "doppler_prediction", "fsw.kernels.doppler")
+range_prediction = on_first_call(globals(), "range_prediction", "fsw.kernels.one_way_range")
 doppler_step = on_first_call(globals(), "doppler_step", "fsw.kernels.radiometric_step")
 doppler_finish = on_first_call(globals(), "doppler_finish", "fsw.kernels.radiometric_step")
 range_step = on_first_call(globals(), "range_step", "fsw.kernels.radiometric_step")
@@ -35,25 +36,26 @@ if TYPE_CHECKING:
 
 def predict_range(stack: EKFStack, station: str, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """h (N, 1) and H (N, 1, n) of one-way range ρ = ρ_g + c δ (+ range bias) for states x (N, n)
-    (geometry and light time: :func:`fsw.models.radiometric.solve_uplinks`)."""
-    L = stack.layout
+    (geometry and light time: :func:`fsw.models.radiometric.solve_uplinks`; h and H:
+    :func:`fsw.kernels.one_way_range.range_prediction`)."""
     clock = stack.clock_columns
     delta = np.ascontiguousarray(stack.clock_state(x, 0))
     w = stack.range_work
     w.z[0] = x[:, 0:6]
     w.tt[0] = t
     rho, ku, d_rho_d_v, d_rho_d_delta = solve_uplinks(stack.env, station, w.tt, w.z, delta, work=w.uplinks)
-    N = x.shape[0]
-    H = np.zeros((N, 1, L.n))
-    H[:, 0, 0:3] = ku[0]
-    H[:, 0, 3:6] = d_rho_d_v[0]
-    h = rho[0] + C_KM_S * delta
-    if clock is not None:
-        H[:, 0, clock[0]] = C_KM_S + d_rho_d_delta[0]
-    if L.has("range_bias"):
-        h = h + x[:, L.slices["range_bias"].start]
-        H[:, 0, L.slices["range_bias"].start] = 1.0
-    return h[:, None], H
+    N, n = x.shape
+    h = np.empty((N, 1))
+    H = np.empty((N, 1, n))
+    range_prediction(rho, ku, d_rho_d_v, d_rho_d_delta, delta, x, clock is not None, clock[0] if clock else 0,
+                     range_bias_column(stack), C_KM_S, h, H)
+    return h, H
+
+
+def range_bias_column(stack: EKFStack) -> int:
+    """The range bias's column of the stack's states, −1 without one."""
+    L = stack.layout
+    return L.slices["range_bias"].start if L.has("range_bias") else -1
 
 
 def predict_doppler(stack: EKFStack, station: str, t: float, count_s: float,
@@ -209,8 +211,7 @@ def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.n
     herm, t_first, step, lo_ok, hi_ok = env.hermite_window(t1 - 1.0, t1 + 1.0)
     clock = stack.clock_columns
     c0, c1 = clock or (0, 0)
-    L = stack.layout
-    bias = L.slices["range_bias"].start if L.has("range_bias") else -1
+    bias = range_bias_column(stack)
     w = stack.range_work
     u = w.uplinks
     N, n = x.shape

@@ -15,7 +15,7 @@ one, so its results are theirs to the bit:
 3. the uplink light time (Lubey & Ely 2022 §4.1, :func:`fsw.kernels.light_time.uplink_solution`) at
    the reception epoch(s) and the prediction with its partials: a Doppler count's
    h = Δρ_g/T + c (f − a T/2) (:func:`fsw.kernels.doppler.doppler_prediction`), a range's
-   ρ = ρ_g + c δ (+ range bias) (:func:`_range_prediction`);
+   ρ = ρ_g + c δ (+ range bias) (:func:`fsw.kernels.one_way_range.range_prediction`);
 4. R = (s σ)² per filter (plus, for a count, the clock's variance over it) and the Joseph update
    (:func:`fsw.kernels.joseph_update.joseph_update`; the chi-square of Lubey & Ely 2022 eq. 6).
 
@@ -38,6 +38,7 @@ from fsw.kernels.count_start import count_start_from_leg  # noqa: E402  (after t
 from fsw.kernels.doppler import doppler_prediction  # noqa: E402
 from fsw.kernels.joseph_update import joseph_update  # noqa: E402
 from fsw.kernels.light_time import uplink_light_time, uplink_solution  # noqa: E402
+from fsw.kernels.one_way_range import range_prediction  # noqa: E402
 from fsw.kernels.time_update import time_update  # noqa: E402
 from fsw.kernels.variational_rk4 import rk4_variational  # noqa: E402
 
@@ -105,28 +106,6 @@ def _noise_and_update(scale, sigma, added, with_added, x_prop, P_prop, H, R, y, 
         v = v * v
         R[i, 0, 0] = v + added[i] if with_added else v
     joseph_update(x_prop, P_prop, H, R, y, h, does, gate, residual, x_out, P_out, S, chi2, processed)
-
-
-@njit(cache=True)
-def _range_prediction(rho, ku, d_rho_d_v, d_rho_d_delta, delta, x_prop, has_clock, c0, bias, c_km_s, h, H):
-    """h (N, 1) and H (N, 1, n) of one-way range ρ = ρ_g + c δ (+ the range bias in column ``bias``,
-    −1: none) from the light-time solution at the reception epoch: ∂ρ/∂r = k u, ∂ρ/∂v = −δ k u,
-    ∂ρ/∂δ = c + ∂ρ_g/∂δ (column c0 when the states have a clock), ∂ρ/∂b = 1
-    (:func:`fsw.filters.radiometric_kinds.predict_range`)."""
-    n = H.shape[2]
-    for i in range(x_prop.shape[0]):
-        for col in range(n):
-            H[i, 0, col] = 0.0
-        for j in range(3):
-            H[i, 0, j] = ku[0, i, j]
-            H[i, 0, 3 + j] = d_rho_d_v[0, i, j]
-        v = rho[0, i] + c_km_s * delta[i]
-        if has_clock:
-            H[i, 0, c0] = c_km_s + d_rho_d_delta[0, i]
-        if bias >= 0:
-            v = v + x_prop[i, bias]
-            H[i, 0, bias] = 1.0
-        h[i, 0] = v
 
 
 @njit(_DOPPLER_STEP, cache=True)
@@ -215,8 +194,8 @@ def range_step(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, pol
     if uplink_solution(tt, z, delta, herm, t_first, step, lo_ok, hi_ok, node, t_grid, omega, gm_sun, c_km_s,
                        iterations, r_sc, v_mars, t_g, rho, ku, d_rho_d_v, d_rho_d_delta) != 0:
         return 1
-    _range_prediction(rho, ku, d_rho_d_v, d_rho_d_delta, delta, x_prop, has_clock, c0, bias, c_km_s, h, H)
-    _noise_and_update(scale, sigma, delta, False, x_prop, P_prop, H, R, y, h, does, gate,
+    range_prediction(rho, ku, d_rho_d_v, d_rho_d_delta, delta, x_prop, has_clock, c0, bias, c_km_s, h, H)
+    _noise_and_update(scale, sigma, delta, False, x_prop, P_prop, H, R, y, h, does, gate,  # no added variance
                       residual, x_out, P_out, S, chi2, processed)
     return 0
 
@@ -229,6 +208,6 @@ def range_finish(tt, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_g
     """The rest of a range measurement :func:`range_step` left at 1 (as :func:`doppler_finish`)."""
     uplink_light_time(tt, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, omega, gm_sun, c_km_s,
                       iterations, rho, ku, d_rho_d_v, d_rho_d_delta)
-    _range_prediction(rho, ku, d_rho_d_v, d_rho_d_delta, delta, x_prop, has_clock, c0, bias, c_km_s, h, H)
-    _noise_and_update(scale, sigma, delta, False, x_prop, P_prop, H, R, y, h, does, gate,
+    range_prediction(rho, ku, d_rho_d_v, d_rho_d_delta, delta, x_prop, has_clock, c0, bias, c_km_s, h, H)
+    _noise_and_update(scale, sigma, delta, False, x_prop, P_prop, H, R, y, h, does, gate,  # no added variance
                       residual, x_out, P_out, S, chi2, processed)
