@@ -51,3 +51,22 @@ def test_unknown_moon():
         moon_state("titan", 0.0)
     with pytest.raises(MoonError):
         moon_state("phobos", float("nan"))
+
+
+@pytest.mark.parametrize("name", ["phobos", "deimos"])
+def test_one_epoch_on_floats_is_the_array_form_to_the_bit(name):
+    """An epoch given as a float takes the Python-float path; it must give what the numpy form
+    gives for the same epoch as a 0-d array (what the onboard code computed before), to the bit,
+    and agree with the vectorised (N,) form to rounding."""
+    rng = np.random.default_rng(11)
+    ts = np.concatenate([rng.uniform(5.0e8, 9.0e8, 3000), rng.uniform(-3e9, 3e9, 500)])
+    for t in ts:
+        p, v = moon_state(name, float(t))
+        p0, v0 = moon_state(name, np.asarray(t))
+        assert np.array_equal(p, p0) and np.array_equal(v, v0), t
+    P, V = moon_state(name, ts)
+    scalar = np.array([np.concatenate(moon_state(name, float(t))) for t in ts])
+    assert np.allclose(scalar[:, :3], P, rtol=0, atol=1e-9 * MOONS[name].a_km)
+    assert np.allclose(scalar[:, 3:], V, rtol=0, atol=1e-12)
+    with pytest.raises(MoonError):
+        moon_state(name, float("inf"))

@@ -172,3 +172,89 @@ def test_priority_peek_matches_the_rule_with_one_job_or_many():
             assert picked[0] is expected[0] and picked[1] == expected[1]
             queue.complete(*picked)
     assert shortcut > 100  # the shortcut was exercised
+
+
+def _reference_frames(jobs, policy, budget, frame_s, n_frames):
+    """The executive's frames written out naively, for comparison: every stage picked by the
+    rule of the policy over every due job (no shortcuts), admitted while its declared cost fits
+    the budget left (the first stage of a frame always), charged its declared cost."""
+    progress = [0] * len(jobs)  # next stage index per job
+    log, reports = [], []
+    for k in range(n_frames):
+        t_end = (k + 1) * frame_s
+        used, processed = 0.0, 0
+        while True:
+            ready = []
+            for j, job in enumerate(jobs):
+                i = progress[j]
+                if job.t > t_end or i >= len(job.stages):
+                    continue
+                lane = job.stages[i].lane_key
+                # ready: every earlier due job has passed this lane (lanes are FIFO by job)
+                blocked = any(jobs[e].t <= t_end and any(s.lane_key == lane for s in jobs[e].stages[progress[e]:])
+                              for e in range(j))
+                if not blocked:
+                    ready.append((job.stages[i].rank if policy == "priority" else 0, j, i))
+            if policy == "fifo":
+                ready = [r for r in ready if all(progress[e] >= len(jobs[e].stages) or jobs[e].t > t_end
+                                                 for e in range(r[1]))]
+            if not ready:
+                break
+            _, j, i = min(ready)
+            cost = jobs[j].stages[i].cost
+            if processed and cost > budget - used:
+                break
+            log.append((k, j, i))
+            used += cost
+            processed += 1
+            progress[j] += 1
+        reports.append((processed, used))
+    return log, reports
+
+
+@pytest.mark.parametrize("policy", ["priority", "fifo"])
+def test_frames_run_what_the_naive_rule_runs(policy):
+    """Random jobs (shared and own lanes, one to five stages, bursts and gaps), random costs,
+    a budget that defers: the executive runs, frame by frame, the stages the naive rule picks.
+    Its shortcut for a frame whose remaining work is one job's is taken often."""
+    rng = random.Random(23)
+    kinds = ("ingest", "primary", "filters", "gating", "telemetry")
+    frame_s = 60.0
+    shortcut = peeks = 0
+    for trial in range(40):
+        log = []
+        jobs = []
+        t = 0.0
+        for j in range(rng.randint(1, 25)):
+            t += rng.choice((0.0, 5.0, 30.0, 60.0, 200.0))
+            n = rng.randint(1, 5)
+            stages = tuple(Stage(rng.choice(kinds), (lambda j=j, i=i: log.append((j, i))),
+                                 lane=rng.choice((None, None, "a", "b")), cost=float(rng.randint(1, 6)))
+                           for i in range(n))
+            jobs.append(Job(t=t, stages=stages))
+        budget = float(rng.choice((3, 6, 10, 15, 100)))
+        ex = FrameExecutive(wu_config(work_unit_budget=budget, policy=policy, frame_s=frame_s), t0=0.0)
+        for job in jobs:
+            ex.submit(job)
+        policy_pick = ex._queue.peek
+
+        def counted_peek():
+            nonlocal peeks
+            peeks += 1
+            return policy_pick()
+
+        ex._queue.peek = counted_peek
+        n_frames = int(t / frame_s) + 2 + sum(len(job.stages) for job in jobs)  # a stage a frame at least
+        got_log, got_reports = [], []
+        for k in range(n_frames):
+            before, asked = len(log), peeks
+            rep = ex.run_frame()
+            if peeks == asked:
+                shortcut += len(log) - before
+            got_log += [(k, j, i) for j, i in log[before:]]
+            got_reports.append((rep.processed, rep.used))
+        want_log, want_reports = _reference_frames(jobs, policy, budget, frame_s, n_frames)
+        assert got_log == want_log, trial
+        assert got_reports == want_reports, trial
+        assert ex.pending_jobs == 0
+    assert shortcut > 200  # stages of frames that never asked the policy: the one-job shortcut

@@ -91,6 +91,8 @@ def moon_state(name: str, t_tdb) -> tuple[np.ndarray, np.ndarray]:
         el = MOONS[name.lower()]
     except (KeyError, AttributeError):
         raise MoonError(f"unknown moon {name!r}; known: {', '.join(MOONS)}") from None
+    if isinstance(t_tdb, float):
+        return _moon_state_at(el, _FRAMES[name.lower()], t_tdb)
     t = np.asarray(t_tdb, dtype=float)
     if not np.all(np.isfinite(t)):
         raise MoonError("non-finite time")
@@ -115,3 +117,38 @@ def moon_state(name: str, t_tdb) -> tuple[np.ndarray, np.ndarray]:
     pos = xp[..., None] * P + yp[..., None] * Q
     vel = vxp[..., None] * P + vyp[..., None] * Q
     return pos, vel
+
+
+def _moon_state_at(el: MoonElements, frame: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`moon_state` at one epoch, on Python floats: an optical measurement asks for one
+    epoch, and numpy on 0-d arrays cost ten times the arithmetic. Every operation is the array
+    form's, in its order (``%`` is ``np.mod``, ``math.radians`` is ``np.radians``, ``math.sin``
+    and ``math.cos`` are numpy's to the bit here; the two rotations stay numpy's matmul), so
+    the result is the array form's to the bit (``tests/test_astro_moons.py``)."""
+    if not math.isfinite(t):
+        raise MoonError("non-finite time")
+    dt = t - _EPOCH_S
+    n = el.mean_motion
+    e = el.e
+    M = math.radians((el.mean_anomaly_deg + el.n_deg_day * (dt / SECONDS_PER_DAY)) % 360.0) % (2 * math.pi)
+    # solve_kepler, one value
+    E = M + e * math.sin(M)
+    for _ in range(30):
+        dE = (E - e * math.sin(E) - M) / (1.0 - e * math.cos(E))
+        E = E - dE
+        if abs(dE) < 1e-14:
+            break
+    cE, sE = math.cos(E), math.sin(E)
+    b = el.a_km * math.sqrt(1.0 - e**2)
+    xp = el.a_km * (cE - e)
+    yp = b * sE
+    Edot = n / (1.0 - e * cE)
+    vxp = -el.a_km * sE * Edot
+    vyp = b * cE * Edot
+    w = math.radians(el.argp_deg) + 2 * math.pi * dt / (el.p_argp_yr * _YEAR_S)
+    O = math.radians(el.node_deg) - 2 * math.pi * dt / (el.p_node_yr * _YEAR_S)
+    ci, si = math.cos(math.radians(el.i_deg)), math.sin(math.radians(el.i_deg))
+    cO, sO, cw, sw = math.cos(O), math.sin(O), math.cos(w), math.sin(w)
+    P = np.array([cO * cw - sO * sw * ci, sO * cw + cO * sw * ci, sw * si]) @ frame.T
+    Q = np.array([-cO * sw - sO * cw * ci, -sO * sw + cO * cw * ci, cw * si]) @ frame.T
+    return xp * P + yp * Q, vxp * P + vyp * Q

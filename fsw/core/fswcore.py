@@ -102,7 +102,7 @@ class FswCore:
         self.executive = FrameExecutive(config.budget, clock=clock, t0=init.t_s)
         #: the pipeline's stages bound to this core, per load (enabled filters, networks, adaptive
         #: LP work units): the same for every job of that load; a job is they and its context
-        self._stages: dict[tuple[int, int, float], tuple[Stage, ...]] = {}
+        self._stages: dict[tuple[bytes, int, float], tuple[Stage, ...]] = {}
         #: measurement kinds whose first job has been flown on a copy (:meth:`_warm_up`); None:
         #: no warm-up (work-unit budgets do not depend on the host's start-up costs)
         self._warm_kinds: set[str] | None = set() if config.budget.mode == "cpu" else None
@@ -223,10 +223,12 @@ class FswCore:
 
     def _stages_now(self) -> tuple[Stage, ...]:
         """The pipeline's stages for the load of now (enabled filters, networks, adaptive LP work)."""
-        key = (int(np.count_nonzero(self.bank.active)), len(self.networks), self.bank.adaptive_lp_cost())
+        # asked per measurement: the enabled mask's bytes are a cheaper key than its count
+        active = self.bank.active
+        key = (active.tobytes(), len(self.networks), self.bank.adaptive_lp_cost())
         stages = self._stages.get(key)
         if stages is None:
-            load = Load(active_filters=key[0], networks=key[1], adaptive_lp=key[2])
+            load = Load(active_filters=int(np.count_nonzero(active)), networks=key[1], adaptive_lp=key[2])
             stages = self._stages[key] = build_stages(self, self.PIPELINE, self.config.budget, load)
         return stages
 

@@ -153,12 +153,17 @@ class FrameExecutive:
         """Run one frame ending at ``t_frame_end`` (default: previous end + ``frame_s``)."""
         if self._running:
             raise RuntimeError("run_frame called from inside a stage")
-        t_end = self._t_end + self.config.frame_s if t_frame_end is None else t_frame_end
-        if isinstance(t_end, bool) or not isinstance(t_end, (int, float)) or not math.isfinite(t_end):
-            raise FrameTimeError(f"frame end must be a finite number, got {t_end!r}")
-        t_end = float(t_end)
-        if t_end <= self._t_end:
-            raise FrameTimeError(f"frame end {t_end!r} is not after the previous frame end {self._t_end!r}")
+        if t_frame_end is None:
+            t_end = self._t_end + self.config.frame_s  # a float: only its value needs checking
+            if not self._t_end < t_end < math.inf:
+                raise FrameTimeError(f"frame end {t_end!r} is not finite and after the previous frame end {self._t_end!r}")
+        else:
+            t_end = t_frame_end
+            if isinstance(t_end, bool) or not isinstance(t_end, (int, float)) or not math.isfinite(t_end):
+                raise FrameTimeError(f"frame end must be a finite number, got {t_end!r}")
+            t_end = float(t_end)
+            if t_end <= self._t_end:
+                raise FrameTimeError(f"frame end {t_end!r} is not after the previous frame end {self._t_end!r}")
         self._running = True
         self._t_running = t_end
         try:
@@ -229,43 +234,58 @@ class FrameExecutive:
         self._promote(t_end)
         frame = self._frame
         queue, meter, clock = self._queue, self._meter, self._clock
-        peek, complete, predict, admits, charge = queue.peek, queue.complete, meter.predict, meter.admits, meter.charge
+        peek, oldest, complete, fits, charge = queue.peek, queue.oldest, queue.complete, meter.fits, meter.charge
         lane_progress = self._lane_progress
         budget = self.config.budget
         used = 0.0
         processed = 0
+        full = False
         # One clock reading per stage: the end of one stage is the start of the next, so the
         # executive's own bookkeeping between them is charged to the stage it leads to.
         mark: float | None = None
-        while True:
-            picked = peek()
-            if picked is None:
-                break
-            state, index = picked
+        while not full:
+            # The stages to run next, in order: the rest of one job while the policy would pick
+            # them one after the other anyway (the usual frame: one measurement's job), else the
+            # policy's one pick.
+            if queue.single:
+                state = oldest()
+                if state is None:
+                    break
+                first = state.next
+                last = len(state.job.stages)
+            else:
+                picked = peek()
+                if picked is None:
+                    break
+                state, first = picked
+                last = first + 1
             job = state.job
-            stage = job.stages[index]
-            remaining = budget - used
-            if processed and not admits(predict(stage), remaining):
-                break
-            start = clock() if mark is None else mark
-            try:
-                if job.context is None:
-                    stage.fn()
-                else:
-                    stage.fn(job.context)
-            except Exception as exc:  # a faulty stage must never stop the executive
-                self._record_error(frame, state, stage, exc)
-            mark = clock()
-            measured = measured_interval(start, mark)
-            self._cpu_measured += measured
-            cost = charge(stage, measured)
-            if cost > remaining:
-                self._overruns += 1
-            used += cost
-            processed += 1
-            if complete(state, index):
-                self._jobs_completed += 1
-            lane_progress[stage.lane_key] = float(job.t)
+            stages, context, t_job = job.stages, job.context, float(job.t)
+            for index in range(first, last):
+                stage = stages[index]
+                remaining = budget - used
+                if processed and not fits(stage, remaining):
+                    full = True
+                    break
+                start = clock() if mark is None else mark
+                try:
+                    if context is None:
+                        stage.fn()
+                    else:
+                        stage.fn(context)
+                except Exception as exc:  # a faulty stage must never stop the executive
+                    self._record_error(frame, state, stage, exc)
+                mark = clock()
+                measured = measured_interval(start, mark)
+                self._cpu_measured += measured
+                cost = charge(stage, measured)
+                if cost > remaining:
+                    self._overruns += 1
+                used += cost
+                processed += 1
+                if complete(state, index):
+                    self._jobs_completed += 1
+                lane_progress[stage.lane_key] = t_job
         self._stages_run += processed
         self._t_end = t_end
         self._frame += 1

@@ -26,6 +26,11 @@ class WorkUnitMeter:
     def admits(self, predicted: float, remaining: float) -> bool:
         return predicted <= remaining
 
+    def fits(self, stage: Stage, remaining: float) -> bool:
+        """``admits(predict(stage), remaining)`` in one call (asked before every stage)."""
+        cost = stage.cost
+        return (cost if cost is not None else self._config.default_cost(stage.kind)) <= remaining
+
     def charge(self, stage: Stage, measured_s: float) -> float:
         return self.predict(stage)
 
@@ -62,6 +67,13 @@ class CpuMeter:
 
     def admits(self, predicted: float, remaining: float) -> bool:
         return remaining > 0.0 and predicted <= remaining
+
+    def fits(self, stage: Stage, remaining: float) -> bool:
+        """``admits(predict(stage), remaining)`` in one call (asked before every stage)."""
+        if remaining <= 0.0:
+            return False
+        mean = self._mean.get(stage.label)
+        return (0.0 if mean is None else mean + self._margin * self._dev[stage.label]) <= remaining
 
     def charge(self, stage: Stage, measured_s: float) -> float:
         cost = measured_s * self._scale

@@ -63,12 +63,15 @@ class StageQueue:
         """Queue a due job; jobs must arrive in order (their lanes stay FIFO)."""
         self._jobs.append(state)
         lanes = self._lanes
-        for index, stage in enumerate(state.job.stages):
+        index = 0
+        for stage in state.job.stages:
+            # a lane, once made, stays (empty between jobs): the same few lanes serve every job
             lane = lanes.get(stage.lane_key)
             if lane is None:
                 lane = lanes[stage.lane_key] = deque()
             lane.append((state, index))
-        self.pending_stages += len(state.job.stages)
+            index += 1
+        self.pending_stages += index
         self.pending_jobs += 1
 
     def pending_with(self, label: str) -> int:
@@ -95,6 +98,8 @@ class StageQueue:
         best: tuple[JobState, int] | None = None
         best_rank = best_order = 0
         for lane in self._lanes.values():
+            if not lane:
+                continue
             head = lane[0]
             state, index = head
             if state.next != index:
@@ -104,18 +109,22 @@ class StageQueue:
                 best, best_rank, best_order = head, rank, state.order
         return best
 
+    @property
+    def single(self) -> bool:
+        """Whether the next stages are one job's, in its order, whichever the policy: under
+        ``fifo`` always; under ``priority`` while at most one job is outstanding (its one ready
+        lane entry is its next stage). Jobs join only between frames, so a frame that finds
+        this true keeps it to its end."""
+        return self._policy == "fifo" or self.pending_jobs <= 1
+
     def complete(self, state: JobState, index: int) -> bool:
         """Mark the stage returned by :meth:`peek` as run; True when that finished its job."""
-        lane_key = state.job.stages[index].lane_key
-        lane = self._lanes[lane_key]
-        head = lane.popleft()
+        head = self._lanes[state.job.stages[index].lane_key].popleft()
         if head[0] is not state or head[1] != index or state.next != index:
             raise RuntimeError("stage completed out of order")
-        if not lane:
-            del self._lanes[lane_key]
-        state.next += 1
+        state.next = index + 1
         self.pending_stages -= 1
-        if state.next >= len(state.job.stages):
+        if index + 1 >= len(state.job.stages):
             self.pending_jobs -= 1
             return True
         return False
