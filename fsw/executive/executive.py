@@ -290,7 +290,7 @@ class FrameExecutive:
         self._t_end = t_end
         self._frame += 1
         backlog = queue.pending_jobs
-        oldest = queue.oldest()
+        behind = oldest()
         warning = backlog > self.config.max_backlog
         if backlog > self._max_backlog_seen:
             self._max_backlog_seen = backlog
@@ -309,7 +309,7 @@ class FrameExecutive:
             backlog=backlog,
             overruns=self._overruns,
             errors=self._error_count,
-            lag_s=(t_end - oldest.job.t) if oldest is not None else 0.0,
+            lag_s=(t_end - behind.job.t) if behind is not None else 0.0,
             backlog_warning=warning,
         )
 
