@@ -213,11 +213,12 @@ class FrameExecutive:
         frames' reports (e.g. a periodic idle report)."""
         if self._running:
             raise RuntimeError("skip_idle called from inside a stage")
-        if self._queue.pending_jobs:
-            return 0
+        frame_s, budget = self.config.frame_s, self.config.budget
+        nxt = self._t_end + frame_s
+        if self._queue.pending_jobs or nxt > until or nxt >= before:
+            return 0  # asked before every frame: most often not even the next frame may be skipped
         with self._lock:
             t_due = self._future[0].job.t if self._future else math.inf
-        frame_s, budget = self.config.frame_s, self.config.budget
         t_end, skipped, budget_total = self._t_end, 0, self._budget_total
         while True:
             nxt = t_end + frame_s
