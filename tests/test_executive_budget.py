@@ -293,3 +293,34 @@ def test_pending_with_counts_jobs_whose_stage_has_not_run():
     assert ex.pending_with("bank") == 0 and ex.pending_jobs == 4
     ex.drain()
     assert ex.pending_jobs == 0 and ex.pending_with("gating") == 0
+
+
+def test_skip_idle_leaves_the_executive_as_running_the_idle_frames_would():
+    """Jobs with random gaps: one executive skips idle frames before each arrival (with random
+    report epochs as ``before``), the other runs every frame. Their frames, budget totals and
+    every non-idle report agree, and skip_idle skips nothing it must not."""
+    rng = random.Random(5)
+    cfg = BudgetConfig(mode="work-units", work_unit_budget=10.0, frame_s=60.0)
+    skipping, running = FrameExecutive(cfg), FrameExecutive(cfg)
+    t = 0.0
+    skipped_total = 0
+    for k in range(300):
+        t += rng.choice((10.0, 60.0, 61.0, 600.0, 3600.0))
+        before = t - rng.uniform(-120.0, 3000.0)
+        busy = []
+        while skipping.t_frame_end + 60.0 <= t:
+            n = skipping.skip_idle(t, before=before)
+            skipped_total += n
+            if skipping.t_frame_end + 60.0 > t:
+                break
+            rep = skipping.run_frame()
+            if rep.processed or rep.backlog:
+                busy.append(rep)
+        want = [rep for rep in running.run_until(t) if rep.processed or rep.backlog]
+        assert busy == want
+        assert skipping.frame == running.frame and skipping.t_frame_end == running.t_frame_end
+        assert skipping.stats.budget_total == running.stats.budget_total
+        job = Job(t=t, stages=(Stage("primary", lambda: None, cost=4.0), Stage("gating", lambda: None, cost=4.0)))
+        skipping.submit(job)
+        running.submit(job)
+    assert skipped_total > 1000
