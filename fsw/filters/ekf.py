@@ -294,6 +294,13 @@ class EKFStack:
         known, q = self._q_known
         return x, P, (q if known is x else self.drivers(x))
 
+    def leg_arrays(self, nq: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """z1 (N, 6), Y (N, 6, 6 + n_q), x (N, n), P (N, n, n) for a leg a compiled step flies
+        (:func:`fsw.kernels.leg.fly_leg`) with n_q drivers: new arrays, since x and P become the
+        bank's state (:meth:`end_leg`)."""
+        N, n = self.x.shape
+        return np.empty((N, 6)), np.empty((N, 6, 6 + nq)), np.empty((N, n)), np.empty((N, n, n))
+
     def end_leg(self, t1: float, x0: np.ndarray, z1: np.ndarray, q: np.ndarray, Y: np.ndarray, x1: np.ndarray,
                 P1: np.ndarray) -> None:
         """Take the state x1, P1 at t1 that a leg from the current epoch reached, flown with drivers
@@ -429,6 +436,14 @@ class EKFStack:
         last leg (so the leg's STM gives its start)."""
         leg = self._last_leg
         return leg is not None and x is self.x and leg[1] == self.t == t and abs(leg[0] - (t - count_s)) < 1e-6
+
+    def at_epoch(self, t: float) -> bool:
+        """Whether a measurement at t needs no leg flown first — t is the current epoch and no
+        event is due (:meth:`propagate_to` t would change nothing) — and updates plainly: fixed
+        process noise, C-ordered arrays (what a compiled step then updates in place of
+        :meth:`update`)."""
+        return (t == self.t and t < self._next_event and t <= self._event_horizon and not self._any_adaptive
+                and self.x.flags.c_contiguous and self.P.flags.c_contiguous)
 
     def held_leg(self, t: float, count_s: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:

@@ -8,12 +8,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from fsw.astro.constants import C_KM_S
+from fsw.astro.frames import quat_to_matrix
 from fsw.fdir.families import OPTICAL
 from fsw.filters.errors import MeasurementRejected
 from fsw.interface import kinds
 from fsw.interface.messages import Measurement
-from fsw.models.environment import OPTICAL_TARGETS, Environment
+from fsw.kernels import on_first_call
+from fsw.kernels.codes import OK
+from fsw.models.environment import MARS, OPTICAL_TARGETS, Environment
 from fsw.models.optical import optical
+
+optical_step = on_first_call(globals(), "optical_step", "fsw.kernels.optical_step")
 
 if TYPE_CHECKING:
     from fsw.filters.ekf import EKFStack
@@ -28,6 +34,79 @@ def predict_optical(stack: EKFStack, target: str, t: float, attitude_q: ArrayLik
     H[:, :, 0:3] = Hr
     H[:, :, 3:6] = Hv
     return h, H
+
+
+class OpticalWork:
+    """Arrays the compiled step fills for every image (read before the next one): the lines of
+    sight g and velocities v (N, 3), h (N, 2), the partials Hr, Hv (N, 2, 3), H (N, 2, n) and
+    R (N, 2, 2)."""
+
+    def __init__(self, N: int, n: int):
+        self.g = np.empty((N, 3))
+        self.v = np.empty((N, 3))
+        self.h = np.empty((N, 2))
+        self.Hr = np.empty((N, 2, 3))
+        self.Hv = np.empty((N, 2, 3))
+        self.H = np.empty((N, 2, n))
+        self.R = np.empty((N, 2, 2))
+
+
+def optical_image_step(stack: EKFStack, target: str, t1: float, attitude_q: ArrayLike, value: np.ndarray,
+                       sigma: np.ndarray, scale: np.ndarray, does: np.ndarray, gate: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """An image through the bank in compiled code (:mod:`fsw.kernels.optical_step`): the leg from
+    the bank's epoch to the image epoch t1, the prediction of :func:`predict_optical`, R (each
+    reported sigma times the filter's ``scale``, squared, on the diagonal) and the Joseph update
+    of the filters that ``does`` under their chi-square ``gate`` (inf: no editing). Returns
+    (residual, S, chi2, processed) as :meth:`EKFStack.update` does; None (the bank untouched)
+    unless the leg is a plain one or the bank is at t1 already (:meth:`EKFStack.at_epoch`), and
+    None after the leg when the camera cannot image the target (the bank's step-by-step path,
+    then at t1, rejects the image as it rejects any)."""
+    t0 = stack.t
+    N, n = stack.x.shape
+    work = stack.__dict__.get("_optical_work")
+    if work is None:
+        work = stack.__dict__["_optical_work"] = OpticalWork(N, n)
+    fly = t1 != t0
+    if fly:
+        leg = stack.plain_leg(t1)
+        if leg is None:
+            return None
+        x, P, q = leg
+        table = stack.propagator.table(t0, t1)
+        z1, Y, x_prop, P_prop = stack.leg_arrays(q.shape[1])
+    elif stack.at_epoch(t1):
+        # nothing to fly (another measurement had this time tag): the leg's arguments are not read
+        x_prop, P_prop = stack.x, stack.P
+        x, P, q, z1, Y = x_prop, P_prop, work.g, work.g, work.Hr
+        table = (work.Hr, work.Hr, 0.0, 1.0)
+    else:
+        return None
+    env = stack.env
+    # what optical() looks up for the image epoch, in its order, after the leg's table
+    r_T, v_T = env.target_state(target, t1)
+    Vm = env.states_ssb(t1)[1][MARS]
+    focal, principal, light_time, aberration = stack.cameras
+    c0, c1 = stack.clock_columns or (0, 0)
+    prop = stack.propagator
+    update = (np.empty((N, 2)), np.empty((N, n)), np.empty((N, n, n)), np.empty((N, 2, 2)), np.empty(N),
+              np.empty(N, dtype=bool))
+    code = optical_step(fly, t0, t1, x, P, q, *prop.forces, *table, prop.GM,
+                        stack.state_sources, c0, c1, stack.clock_q, stack.snc_psd, z1, Y, x_prop, P_prop,
+                        np.ascontiguousarray(r_T, dtype=float), np.ascontiguousarray(v_T + Vm, dtype=float),
+                        np.ascontiguousarray(Vm), quat_to_matrix(np.asarray(attitude_q, dtype=float)),
+                        np.ascontiguousarray(focal, dtype=float), np.ascontiguousarray(principal, dtype=float),
+                        np.ascontiguousarray(light_time, dtype=bool), np.ascontiguousarray(aberration, dtype=bool),
+                        C_KM_S, work.g, work.v, work.h, work.Hr, work.Hv, work.H, scale, sigma, work.R,
+                        value, does, gate, *update)
+    if fly:
+        stack.end_leg(t1, x, z1, q, Y, x_prop, P_prop)
+    if code != OK:
+        return None
+    residual, x_new, P_new, S, chi2, processed = update
+    stack.x = x_new
+    stack.P = P_new
+    return residual, S, chi2, processed
 
 
 def _attitude(meas: Measurement) -> tuple[float, ...]:
@@ -64,5 +143,6 @@ class OpticalModel:
         return None
 
     def step(self, stack: EKFStack, meas: Measurement, t1: float, value: np.ndarray, sigma: np.ndarray,
-             scale: np.ndarray, does: np.ndarray, gate: np.ndarray) -> None:
-        return None
+             scale: np.ndarray, does: np.ndarray, gate: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        return optical_image_step(stack, meas.source, t1, _attitude(meas), value, sigma, scale, does, gate)

@@ -111,11 +111,6 @@ def _clock_variance(stack: EKFStack, count_s: float) -> tuple[np.ndarray, np.nda
 _last_clock_variance: list[tuple[tuple[float, bytes], tuple[np.ndarray, np.ndarray]] | None] = [None]
 
 
-def _leg_arrays(N: int, n: int, nq: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """z1 (N, 6), Y (N, 6, 6 + n_q), x (N, n), P (N, n, n) for a leg a compiled step flies."""
-    return np.empty((N, 6)), np.empty((N, 6, 6 + nq)), np.empty((N, n)), np.empty((N, n, n))
-
-
 def _update_arrays(N: int, n: int) -> tuple[np.ndarray, ...]:
     """residual (N, 1), x⁺, P⁺, S (N, 1, 1), chi2, processed of a scalar measurement's update."""
     return (np.empty((N, 1)), np.empty((N, n)), np.empty((N, n, n)), np.empty((N, 1, 1)), np.empty(N),
@@ -157,7 +152,7 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
         table = prop.table(t0, t1)
         from_leg = abs(t0 - start) < 1e-6
         back = table if from_leg else prop.table(t1, start)
-        z1, Y, x_prop, P_prop = _leg_arrays(N, n, q.shape[1])
+        z1, Y, x_prop, P_prop = stack.leg_arrays(q.shape[1])
     else:
         held = stack.held_leg(t1, count_s)
         if held is None:
@@ -215,7 +210,7 @@ def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.n
     w = stack.range_work
     u = w.uplinks
     N, n = x.shape
-    z1, Y, x_prop, P_prop = _leg_arrays(N, n, q.shape[1])
+    z1, Y, x_prop, P_prop = stack.leg_arrays(q.shape[1])
     update = _update_arrays(N, n)
     status = range_step(t0, t1, x, P, q, *prop.forces, *table, prop.GM,
                         stack.state_sources, c0, c1, stack.clock_q, stack.snc_psd, z1, Y, x_prop, P_prop,

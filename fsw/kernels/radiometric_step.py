@@ -4,9 +4,8 @@ prediction and Joseph update in one call — for a Doppler count and for a range
 Each step is the composition of the per-equation kernels, in the order the bank runs them one by
 one, so its results are theirs to the bit:
 
-1. (unless the bank is at the time tag t1 already) the trajectory and its sensitivity Y over
-   [t0, t1] (:func:`fsw.kernels.variational_rk4.rk4_variational`) and the time update x̄ = Φ(x),
-   P̄ = Φ P Φᵀ + Q (:func:`fsw.kernels.time_update.time_update`);
+1. (unless the bank is at the time tag t1 already) the leg to t1 (:func:`fsw.kernels.leg.fly_leg`:
+   the trajectory, its sensitivity Y and the time update x̄ = Φ(x), P̄ = Φ P Φᵀ + Q);
 2. for a Doppler count over T ending at t1: the count's start from the leg's STM
    (:func:`fsw.kernels.count_start.count_start_from_leg`) when the count spans the leg (one count
    per count interval, the usual tracking pass; or the bank is at t1 already, a range measurement
@@ -37,9 +36,9 @@ stamp_with_all_kernel_sources()
 from fsw.kernels.count_start import count_start_from_leg  # noqa: E402  (after the cache set-up)
 from fsw.kernels.doppler import doppler_prediction  # noqa: E402
 from fsw.kernels.joseph_update import joseph_update  # noqa: E402
+from fsw.kernels.leg import fly_leg  # noqa: E402
 from fsw.kernels.light_time import uplink_light_time, uplink_solution  # noqa: E402
 from fsw.kernels.one_way_range import range_prediction  # noqa: E402
-from fsw.kernels.time_update import time_update  # noqa: E402
 from fsw.kernels.variational_rk4 import rk4_variational  # noqa: E402
 
 _F = "float64"
@@ -74,18 +73,6 @@ _RANGE_FINISH = (
     f"void({_V}, {_V}, {_T}, {_T}, {_M}, {_V}, {_HERMITE}, {_M}, {_LIGHT_TIME}, {_SOLUTION}, "
     f"{_M}, {_T}, boolean, int64, int64, {_M}, {_T}, {_V}, {_F}, {_T}, {_UPDATE})"
 )
-
-
-@njit(cache=True)
-def _fly(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin, kappa, max_step, frozen_tol,
-         tab_p, tab_v, tab_t0, tab_step, gm, src, c0, c1, clock_q, snc, z1, Y, x_prop, P_prop):
-    """Step 1: the leg's end z1, sensitivity Y and the time-updated x_prop, P_prop at t1."""
-    for i in range(x.shape[0]):
-        for j in range(6):
-            z1[i, j] = x[i, j]
-    rk4_variational(t0, t1, z1, q, True, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin, kappa,
-                    max_step, frozen_tol, tab_p, tab_v, tab_t0, tab_step, gm, Y)
-    time_update(x, z1, P, Y, src, c0, c1, t1 - t0, clock_q, snc, x_prop, P_prop)
 
 
 @njit(cache=True)
@@ -136,8 +123,8 @@ def doppler_step(fly, t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_bat
     δ (N,), the light-time arrays, h (N, 1), H (N, 1, n), R (N, 1, 1), and the update (the
     arguments of ``joseph_update`` after ``gate``)."""
     if fly:
-        _fly(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin, kappa, max_step, frozen_tol,
-             tab_p, tab_v, tab_t0, tab_step, gm, src, c0, c1, clock_q, snc, z1, Y, x_prop, P_prop)
+        fly_leg(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin, kappa, max_step,
+                frozen_tol, tab_p, tab_v, tab_t0, tab_step, gm, src, c0, c1, clock_q, snc, z1, Y, x_prop, P_prop)
     _reception(x_prop, c0, c1, z, delta)
     if from_leg:
         count_start_from_leg(Y, x, z1, x_prop, q, q_leg, z[1], Yb)
@@ -187,8 +174,8 @@ def range_step(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, pol
     The arguments are :func:`doppler_step`'s for a flown leg; z (1, N, 6) and tt (1,) hold the one
     reception epoch; ``has_clock``: the states have a clock (phase in column c0); ``bias``: the
     range-bias column (−1: none)."""
-    _fly(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin, kappa, max_step, frozen_tol,
-         tab_p, tab_v, tab_t0, tab_step, gm, src, c0, c1, clock_q, snc, z1, Y, x_prop, P_prop)
+    fly_leg(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin, kappa, max_step,
+            frozen_tol, tab_p, tab_v, tab_t0, tab_step, gm, src, c0, c1, clock_q, snc, z1, Y, x_prop, P_prop)
     _reception(x_prop, c0, c1, z, delta)
     tt[0] = t1
     if uplink_solution(tt, z, delta, herm, t_first, step, lo_ok, hi_ok, node, t_grid, omega, gm_sun, c_km_s,
