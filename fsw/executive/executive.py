@@ -156,7 +156,8 @@ class FrameExecutive:
         if t_frame_end is None:
             t_end = self._t_end + self.config.frame_s  # a float: only its value needs checking
             if not self._t_end < t_end < math.inf:
-                raise FrameTimeError(f"frame end {t_end!r} is not finite and after the previous frame end {self._t_end!r}")
+                raise FrameTimeError(f"frame end {t_end!r} is not finite and after the previous frame end "
+                                     f"{self._t_end!r}")
         else:
             t_end = t_frame_end
             if isinstance(t_end, bool) or not isinstance(t_end, (int, float)) or not math.isfinite(t_end):

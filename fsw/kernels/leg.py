@@ -15,6 +15,19 @@ stamp_with_all_kernel_sources()
 from fsw.kernels.time_update import time_update  # noqa: E402  (after the cache set-up)
 from fsw.kernels.variational_rk4 import rk4_variational  # noqa: E402
 
+# Fragments of the step kernels' signatures, for the arguments every step shares.
+F = "float64"
+V = "float64[::1]"
+M = "float64[:, ::1]"
+T = "float64[:, :, ::1]"
+TABLE = f"{T}, {T}, {F}, {F}"  # tab_p, tab_v, tab_t0, tab_step
+#: t0, t1, x, P, q, the force model (srp ... frozen_tol), the leg's table, gm
+LEG = f"{F}, {F}, {M}, {T}, {M}, {V}, {V}, {T}, int64, {V}, {F}, {F}, {F}, {F}, {TABLE}, {V}"
+#: src, c0, c1, clock_q, snc, z1, Y, x_prop, P_prop
+TRANSITION = f"int64[::1], int64, int64, {M}, {V}, {M}, {T}, {M}, {T}"
+#: y, does, gate and the outputs of the Joseph update (residual ... processed)
+UPDATE = f"{V}, boolean[::1], {V}, {M}, {M}, {T}, {T}, {V}, boolean[::1]"
+
 
 @njit(cache=True)
 def fly_leg(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin, kappa, max_step, frozen_tol,

@@ -30,17 +30,12 @@ from fsw.kernels.camera import pinhole_image  # noqa: E402  (after the cache set
 from fsw.kernels.codes import OK  # noqa: E402
 from fsw.kernels.joseph_update import joseph_update  # noqa: E402
 from fsw.kernels.leg import fly_leg  # noqa: E402
+# the signature fragments every step shares
+from fsw.kernels.leg import F as _F, M as _M, T as _T, V as _V  # noqa: E402
+from fsw.kernels.leg import LEG as _LEG, TRANSITION as _TRANSITION, UPDATE as _UPDATE  # noqa: E402
 
-_F = "float64"
-_V = "float64[::1]"
-_M = "float64[:, ::1]"
-_T = "float64[:, :, ::1]"
-# t0, t1, x, P, q, the force model (srp ... frozen_tol), the leg's table, gm
-_LEG = f"{_F}, {_F}, {_M}, {_T}, {_M}, {_V}, {_V}, {_T}, int64, {_V}, {_F}, {_F}, {_F}, {_F}, {_T}, {_T}, {_F}, {_F}, {_V}"
-_TRANSITION = f"int64[::1], int64, int64, {_M}, {_V}, {_M}, {_T}, {_M}, {_T}"  # src ... snc, z1, Y, x_prop, P_prop
 # r_T, w, v_mars, C, focal, principal, light_time, aberration, c_km_s
 _CAMERA = f"{_V}, {_V}, {_V}, {_M}, {_V}, {_M}, boolean[::1], boolean[::1], {_F}"
-_UPDATE = f"{_V}, boolean[::1], {_V}, {_M}, {_M}, {_T}, {_T}, {_V}, boolean[::1]"  # y ... processed
 _OPTICAL_STEP = (
     f"int64(boolean, {_LEG}, {_TRANSITION}, {_CAMERA}, "
     f"{_M}, {_M}, {_M}, {_T}, {_T}, {_T}, {_V}, {_V}, {_T}, {_UPDATE})"  # g, v, h, Hr, Hv, H, scale, sigma, R
@@ -57,11 +52,12 @@ def optical_step(fly, t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_bat
     """One image at t1 after a leg from t0 (see the module docstring): OK when done, else the
     camera's code (the leg is flown; nothing else is written).
 
-    In: with ``fly``, the arguments of ``fly_leg``; without, the bank is at t1 already: x_prop and
-    P_prop are its state (the leg's other arguments are not read); the target's Mars-centred position r_T (3,) at t1, its SSB
-    velocity w (3,), Mars' SSB velocity, the attitude C (camera → ICRF) and the per-filter camera
-    parameters (those of ``pinhole_image``); the per-filter sigma scales (N,), the reported sigmas
-    (2,); the measurement y (2,), which filters update (``does``) and their chi-square gates.
+    In: with ``fly``, the arguments of ``fly_leg``; without, the bank is at t1 already: x_prop
+    and P_prop are its state (the leg's other arguments are not read). The target's Mars-centred
+    position r_T (3,) at t1, its SSB velocity w (3,), Mars' SSB velocity, the attitude C (camera
+    → ICRF) and the per-filter camera parameters (those of ``pinhole_image``); the per-filter
+    sigma scales (N,), the reported sigmas (2,); the measurement y (2,), which filters update
+    (``does``) and their chi-square gates.
     Out: the leg (z1, Y, x_prop, P_prop at t1), g and v (N, 3), h (N, 2), Hr and Hv (N, 2, 3),
     H (N, 2, n), R (N, 2, 2) and the update (the arguments of ``joseph_update`` after ``gate``)."""
     if fly:

@@ -37,23 +37,17 @@ from fsw.kernels.count_start import count_start_from_leg  # noqa: E402  (after t
 from fsw.kernels.doppler import doppler_prediction  # noqa: E402
 from fsw.kernels.joseph_update import joseph_update  # noqa: E402
 from fsw.kernels.leg import fly_leg  # noqa: E402
+# the signature fragments every step shares
+from fsw.kernels.leg import F as _F, M as _M, T as _T, V as _V  # noqa: E402
+from fsw.kernels.leg import LEG as _LEG, TABLE as _TABLE, TRANSITION as _TRANSITION, UPDATE as _UPDATE  # noqa: E402
 from fsw.kernels.light_time import uplink_light_time, uplink_solution  # noqa: E402
 from fsw.kernels.one_way_range import range_prediction  # noqa: E402
 from fsw.kernels.variational_rk4 import rk4_variational  # noqa: E402
 
-_F = "float64"
-_V = "float64[::1]"
-_M = "float64[:, ::1]"
-_T = "float64[:, :, ::1]"
-_TABLE = f"{_T}, {_T}, {_F}, {_F}"  # tab_p, tab_v, tab_t0, tab_step
-# t0, t1, x, P, q, the force model (srp ... frozen_tol), the leg's table, gm
-_LEG = f"{_F}, {_F}, {_M}, {_T}, {_M}, {_V}, {_V}, {_T}, int64, {_V}, {_F}, {_F}, {_F}, {_F}, {_TABLE}, {_V}"
-_TRANSITION = f"int64[::1], int64, int64, {_M}, {_V}, {_M}, {_T}, {_M}, {_T}"  # src ... snc, z1, Y, x_prop, P_prop
 _HERMITE = f"{_T}, {_F}, {_F}"  # herm, t_first, step
 _LIGHT_TIME = f"{_F}, {_F}, {_F}, {_F}, int64"  # t_grid, omega, gm_sun, c_km_s, iterations
 _SOLUTION = f"{_M}, {_T}, {_T}, {_M}"  # rho, ku, d_rho_d_v, d_rho_d_delta
 _RECEPTION = f"{_T}, {_M}, {_V}"  # r_sc, v_mars, t_g
-_UPDATE = f"{_V}, boolean[::1], {_V}, {_M}, {_M}, {_T}, {_T}, {_V}, boolean[::1]"  # y ... processed
 _DOPPLER_STEP = (
     f"int64(boolean, {_LEG}, {_M}, boolean, {_TABLE}, {_TRANSITION}, "
     f"{_F}, {_T}, {_T}, {_V}, {_V}, "  # count_s, z, Yb, tt, delta
