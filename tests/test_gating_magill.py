@@ -27,6 +27,39 @@ def test_log_likelihood_matches_scipy():
     np.testing.assert_allclose(gaussian_log_likelihood(rec), ref, rtol=1e-12)
 
 
+def test_two_component_log_likelihood_is_the_slogdet_form_to_the_bit():
+    """The 2 × 2 determinant written out gives what the numpy form (slogdet) gives, to the bit:
+    innovation covariances of every shape and scale (pivot swapped or not), and it refuses what
+    slogdet's sign refuses (indefinite, singular)."""
+    from fsw.filters.record import BankRecord
+    from fsw.gating.base import GatingInputError
+    from fsw.gating.magill import LOG_2PI
+
+    rng = np.random.default_rng(17)
+    K, n_f = 20000, 3
+    A = rng.standard_normal((K, n_f, 2, 2)) * 10.0 ** rng.uniform(-8, 4, (K, n_f, 1, 1))
+    S = A @ A.transpose(0, 1, 3, 2) + 1e-20 * np.eye(2)
+    res = rng.standard_normal((K, n_f, 2)) * 10.0 ** rng.uniform(-6, 2, (K, n_f, 1))
+    swapped = 0
+    for rec in make_records(res, S, np.arange(K, dtype=float)):
+        sign, logdet = np.linalg.slogdet(rec.S)
+        want = -0.5 * (rec.chi2 + logdet + 2 * np.log(2.0 * np.pi))
+        assert np.array_equal(gaussian_log_likelihood(rec), want), rec.seq
+        swapped += int(np.sum(np.abs(rec.S[:, 1, 0]) > np.abs(rec.S[:, 0, 0])))
+    assert swapped > 1000  # both pivots taken
+    assert 2 * LOG_2PI == 2 * np.log(2.0 * np.pi)
+    bad = {"indefinite": [[1.0, 2.0], [2.0, 1.0]], "singular": [[1.0, 1.0], [1.0, 1.0]],
+           "zero": [[0.0, 0.0], [0.0, 0.0]], "negative pivot": [[-1.0, 0.0], [0.0, 2.0]],
+           "indefinite, swapped": [[0.5, 3.0], [3.0, 2.0]]}
+    for name, m in bad.items():
+        S_bad = np.array([np.eye(2), m, np.eye(2)])[None]
+        assert np.linalg.slogdet(S_bad[0])[0][1] <= 0.0, name
+        rec = BankRecord(t=0.0, seq=0, kind="optical", filters=("a", "b", "c"), residual=np.zeros((3, 2)),
+                         S=S_bad[0], chi2=np.zeros(3), processed=np.ones(3, dtype=bool))
+        with pytest.raises(GatingInputError):
+            gaussian_log_likelihood(rec)
+
+
 def test_million_measurements_without_underflow():
     rng = np.random.default_rng(0)
     K, n = 1_000_000, 2

@@ -90,10 +90,41 @@ def gaussian_log_likelihood(record: BankRecord) -> np.ndarray:
             raise GatingInputError(f"innovation covariance not positive definite in record seq={record.seq}")
         norm = LOG_2PI  # n · ln 2π with n = 1
         return np.array([-0.5 * (c + math.log(v) + norm) for c, v in zip(record.chi2.tolist(), variances)])
+    if n == 2:
+        # An image's [sample, line] (the other kind a bank sees every day): slogdet's LU of a
+        # 2 × 2 matrix written out, in its operations (see _logdet_2x2)
+        out = []
+        for c, S in zip(record.chi2.tolist(), record.S.tolist()):
+            logdet = _logdet_2x2(S[0][0], S[0][1], S[1][0], S[1][1])
+            if logdet is None:
+                raise GatingInputError(f"innovation covariance not positive definite in record seq={record.seq}")
+            out.append(-0.5 * (c + logdet + 2 * LOG_2PI))
+        return np.array(out)
     sign, logdet = np.linalg.slogdet(np.asarray(record.S, dtype=float))
     if np.any(sign <= 0.0):
         raise GatingInputError(f"innovation covariance not positive definite in record seq={record.seq}")
     return -0.5 * (np.asarray(record.chi2, dtype=float) + logdet + n * np.log(2.0 * np.pi))
+
+
+def _logdet_2x2(a: float, b: float, c: float, d: float) -> float | None:
+    """ln |det [[a, b], [c, d]]| as ``np.linalg.slogdet`` computes it — LU with partial pivoting,
+    the multiplier formed with the pivot's reciprocal (as LAPACK's getrf scales the column), the
+    logs of the pivots' magnitudes added — or None where its sign is not positive (not positive
+    definite). ``tests/test_gating_magill.py`` holds the two equal to the bit."""
+    if abs(c) > abs(a):  # rows swapped: the determinant changes sign
+        p, r = c, 1.0 / c
+        u = b - (a * r) * d
+        sign = -1.0
+    else:
+        if a == 0.0:
+            return None
+        p, r = a, 1.0 / a
+        u = d - (c * r) * b
+        sign = 1.0
+    # the sign of the determinant, from the signs alone (a product of the pivots could underflow)
+    if u == 0.0 or ((p > 0.0) == (u > 0.0)) != (sign > 0.0):
+        return None
+    return math.log(abs(p)) + math.log(abs(u))
 
 
 def chaer1997_log_density(record: BankRecord) -> np.ndarray:
