@@ -122,6 +122,21 @@ class RangeWork:
         self.R = np.empty((N, 1, 1))
 
 
+class OpticalWork:
+    """Arrays the compiled optical step (:func:`fsw.filters.optical_kind.optical_image_step`) fills
+    for every image (read before the next one): the lines of sight g and velocities v (N, 3),
+    h (N, 2), the partials Hr, Hv (N, 2, 3), H (N, 2, n) and R (N, 2, 2)."""
+
+    def __init__(self, N: int, n: int):
+        self.g = np.empty((N, 3))
+        self.v = np.empty((N, 3))
+        self.h = np.empty((N, 2))
+        self.Hr = np.empty((N, 2, 3))
+        self.Hv = np.empty((N, 2, 3))
+        self.H = np.empty((N, 2, n))
+        self.R = np.empty((N, 2, 2))
+
+
 class EKFStack:
     """N extended Kalman filters on a common union layout, propagated and updated together."""
 
@@ -246,6 +261,7 @@ class EKFStack:
         self._no_gate = np.full(N, np.inf)
         self.doppler_work = DopplerWork(N, nq, L.n)
         self.range_work = RangeWork(N, L.n)
+        self.optical_work = OpticalWork(N, L.n)
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
@@ -294,12 +310,20 @@ class EKFStack:
         known, q = self._q_known
         return x, P, (q if known is x else self.drivers(x))
 
-    def leg_arrays(self, nq: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """z1 (N, 6), Y (N, 6, 6 + n_q), x (N, n), P (N, n, n) for a leg a compiled step flies
-        (:func:`fsw.kernels.leg.fly_leg`) with n_q drivers: new arrays, since x and P become the
-        bank's state (:meth:`end_leg`)."""
-        N, n = self.x.shape
-        return np.empty((N, 6)), np.empty((N, 6, 6 + nq)), np.empty((N, n)), np.empty((N, n, n))
+    def plain_flight(self, t1: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, float, float],
+                                                np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """What a compiled step needs to fly the leg to t1 when it is a plain one
+        (:meth:`plain_leg`): x, P, the drivers q, the leg's ephemeris table (as
+        ``Propagator.table``) and new arrays for its results z1 (N, 6), Y (N, 6, 6 + n_q),
+        x (N, n), P (N, n, n) — new, since x and P become the bank's state (:meth:`end_leg`).
+        None otherwise."""
+        leg = self.plain_leg(t1)
+        if leg is None:
+            return None
+        x, P, q = leg
+        N, n = x.shape
+        return (x, P, q, self.propagator.table(self.t, t1),
+                np.empty((N, 6)), np.empty((N, 6, 6 + q.shape[1])), np.empty((N, n)), np.empty((N, n, n)))
 
     def end_leg(self, t1: float, x0: np.ndarray, z1: np.ndarray, q: np.ndarray, Y: np.ndarray, x1: np.ndarray,
                 P1: np.ndarray) -> None:

@@ -36,21 +36,6 @@ def predict_optical(stack: EKFStack, target: str, t: float, attitude_q: ArrayLik
     return h, H
 
 
-class OpticalWork:
-    """Arrays the compiled step fills for every image (read before the next one): the lines of
-    sight g and velocities v (N, 3), h (N, 2), the partials Hr, Hv (N, 2, 3), H (N, 2, n) and
-    R (N, 2, 2)."""
-
-    def __init__(self, N: int, n: int):
-        self.g = np.empty((N, 3))
-        self.v = np.empty((N, 3))
-        self.h = np.empty((N, 2))
-        self.Hr = np.empty((N, 2, 3))
-        self.Hv = np.empty((N, 2, 3))
-        self.H = np.empty((N, 2, n))
-        self.R = np.empty((N, 2, 2))
-
-
 def optical_image_step(stack: EKFStack, target: str, t1: float, attitude_q: ArrayLike, value: np.ndarray,
                        sigma: np.ndarray, scale: np.ndarray, does: np.ndarray, gate: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
@@ -64,17 +49,13 @@ def optical_image_step(stack: EKFStack, target: str, t1: float, attitude_q: Arra
     then at t1, rejects the image as it rejects any)."""
     t0 = stack.t
     N, n = stack.x.shape
-    work = stack.__dict__.get("_optical_work")
-    if work is None:
-        work = stack.__dict__["_optical_work"] = OpticalWork(N, n)
+    work = stack.optical_work
     fly = t1 != t0
     if fly:
-        leg = stack.plain_leg(t1)
-        if leg is None:
+        flight = stack.plain_flight(t1)
+        if flight is None:
             return None
-        x, P, q = leg
-        table = stack.propagator.table(t0, t1)
-        z1, Y, x_prop, P_prop = stack.leg_arrays(q.shape[1])
+        x, P, q, table, z1, Y, x_prop, P_prop = flight
     elif stack.at_epoch(t1):
         # nothing to fly (another measurement had this time tag): the leg's arguments are not read
         x_prop, P_prop = stack.x, stack.P

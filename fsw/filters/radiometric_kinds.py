@@ -144,15 +144,13 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
     N, n = stack.x.shape
     fly = t1 != t0
     if fly:
-        leg = stack.plain_leg(t1)
-        if leg is None:
+        flight = stack.plain_flight(t1)
+        if flight is None:
             return None
-        x, P, q = leg
+        x, P, q, table, z1, Y, x_prop, P_prop = flight
         q_leg = q
-        table = prop.table(t0, t1)
         from_leg = abs(t0 - start) < 1e-6
         back = table if from_leg else prop.table(t1, start)
-        z1, Y, x_prop, P_prop = stack.leg_arrays(q.shape[1])
     else:
         held = stack.held_leg(t1, count_s)
         if held is None:
@@ -196,13 +194,12 @@ def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.n
     last = env.last_station_node(station)
     if last is None:
         return None
-    leg = stack.plain_leg(t1)
-    if leg is None:
+    flight = stack.plain_flight(t1)
+    if flight is None:
         return None
-    x, P, q = leg
+    x, P, q, table, z1, Y, x_prop, P_prop = flight
     t0 = stack.t
     prop = stack.propagator
-    table = prop.table(t0, t1)
     herm, t_first, step, lo_ok, hi_ok = env.hermite_window(t1 - 1.0, t1 + 1.0)
     clock = stack.clock_columns
     c0, c1 = clock or (0, 0)
@@ -210,7 +207,6 @@ def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.n
     w = stack.range_work
     u = w.uplinks
     N, n = x.shape
-    z1, Y, x_prop, P_prop = stack.leg_arrays(q.shape[1])
     update = _update_arrays(N, n)
     status = range_step(t0, t1, x, P, q, *prop.forces, *table, prop.GM,
                         stack.state_sources, c0, c1, stack.clock_q, stack.snc_psd, z1, Y, x_prop, P_prop,
