@@ -193,3 +193,71 @@ def test_lower_bound_lets_magill_switch():
     print(f"Magill switch delays per change: no bound {d_plain}, bound 1e-3 {d_floor}")
     assert all(d is not None for d in d_floor)
     assert sum(d or 101 for d in d_floor) < sum(d or 101 for d in d_plain)
+
+
+def test_compiled_update_is_the_log_sum_exp_recursion_written_out():
+    """The network's update (one compiled call for measurements of one and two components, the
+    Python form for more) against the recursion written out here with numpy: ln p ← ln p + ln f,
+    normalised by log-sum-exp over the enabled filters. The log-likelihoods it reports are
+    gaussian_log_likelihood's to the bit; the weights agree to rounding (the kernel's exp and log
+    are the C library's, numpy's are vectorised). Filters are disabled and re-enabled on the way,
+    and a record whose S is not positive definite is refused with the weights left as they were."""
+    from fsw.filters.record import BankRecord
+    from fsw.gating.base import GatingInputError, check_record
+
+    rng = np.random.default_rng(5)
+    paths = {1: 0, 2: 0, 3: 0}
+    for n_f in (1, 3, 6):
+        names = tuple(f"f{i}" for i in range(n_f))
+        net = make_network("magill", names)
+        logp = np.full(n_f, -np.log(n_f))
+        mask = np.ones(n_f, dtype=bool)
+        for k in range(3000):
+            n = int(rng.choice([1, 1, 1, 2, 3]))
+            A = rng.standard_normal((n_f, n, n)) * 10.0 ** rng.uniform(-4, 3, (n_f, 1, 1))
+            S = A @ A.transpose(0, 2, 1) + 1e-3 * np.eye(n)
+            res = rng.standard_normal((n_f, n)) * 10.0 ** rng.uniform(-2, 1, (n_f, 1))
+            chi2 = np.einsum("fi,fij,fj->f", res, np.linalg.inv(S), res)
+            if n_f > 1 and k % 500 == 250:  # a filter leaves, or comes back
+                i = int(rng.integers(n_f))
+                new = mask.copy()
+                new[i] = not new[i]
+                if new.any():
+                    # the survivors keep their ratios in what the newcomer's 1/N leaves (in logs:
+                    # a probability the linear form would underflow keeps its information)
+                    kept, entering = mask & new, new & ~mask
+                    top = logp[kept].max()
+                    logp = np.where(kept, logp - (top + np.log(np.exp(logp[kept] - top).sum())), -np.inf)
+                    logp[kept] += np.log1p(-entering.sum() / new.sum())
+                    logp[entering] = -np.log(new.sum())
+                    mask = new
+            rec = BankRecord(t=float(k), seq=k, kind="x", filters=names, residual=res, S=S, chi2=chi2,
+                             processed=np.ones(n_f, dtype=bool), active=mask.copy())
+            if k % 700 == 3 and n <= 2:  # a negative determinant: refused, nothing changes
+                S_bad = S.copy()
+                S_bad[-1, 0, 0] = -S_bad[-1, 0, 0] - 1.0
+                bad = BankRecord(t=float(k), seq=k, kind="x", filters=names, residual=res, S=S_bad, chi2=chi2,
+                                 processed=np.ones(n_f, dtype=bool), active=mask.copy())
+                before = net.weights
+                with pytest.raises(GatingInputError):
+                    net.update_checked(bad, check_record(bad, names))
+                assert np.array_equal(net.weights, before)
+            upd = net.update_checked(rec, check_record(rec, names))
+            loglik = gaussian_log_likelihood(rec)
+            assert np.array_equal(np.asarray(upd.statistic), loglik)
+            v = np.where(mask, logp + np.where(mask, loglik, 0.0), -np.inf)
+            top = v[mask].max()
+            logp = np.where(mask, v - (top + np.log(np.exp(v[mask] - top).sum())), -np.inf)
+            np.testing.assert_allclose(upd.weights, np.exp(logp), rtol=1e-13, atol=0.0)
+            assert np.all(upd.weights[~mask] == 0.0) and np.array_equal(np.isneginf(net.log_weights), ~mask)
+            paths[n] += 1
+    assert min(paths.values()) > 500
+
+
+def test_compiled_update_keeps_the_lower_bound():
+    run, res, S = experiment_3(4)
+    recs = make_records(res, S, run.t)
+    net = make_network("magill", recs[0].filters, MagillParams(lower_bound=1e-3))
+    W = np.array([net.update(r).weights for r in recs])
+    assert W.min() >= 1e-3 * (1 - 1e-12) and np.allclose(W.sum(axis=1), 1.0)
+    assert np.any(np.isclose(W, 1e-3))  # the bound was reached, and held

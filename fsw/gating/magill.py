@@ -62,6 +62,10 @@ from fsw.gating.base import (
     log_normalize,
 )
 from fsw.interface.typed import spec
+from fsw.kernels import on_first_call
+from fsw.kernels.codes import MAGILL_NOT_POSITIVE_DEFINITE, MAGILL_UNHANDLED_DIMENSION
+
+magill_update = on_first_call(globals(), "magill_update", "fsw.kernels.magill")
 
 
 @dataclass(frozen=True)
@@ -204,9 +208,25 @@ class MagillNetwork(GatingNetwork):
         self._logp = apply_lower_bound(logp, mask, self.params.lower_bound)
 
     def _update(self, record: BankRecord, active: np.ndarray) -> WeightsUpdate:
-        loglik = gaussian_log_likelihood(record)
-        self._step(loglik, active)
-        update = self._make_update(record, self._count, self._weights(), statistic=loglik)
+        # one compiled call for the measurements of one or two components (every kind a bank
+        # sees), the Python form for larger ones; the lower bound applies to either's result
+        n_f = len(self.filters)
+        loglik, logp, weights = np.empty(n_f), np.empty(n_f), np.empty(n_f)
+        status = magill_update(np.ascontiguousarray(record.chi2, dtype=float),
+                               np.ascontiguousarray(record.S, dtype=float), active, self._logp, LOG_2PI,
+                               loglik, logp, weights)
+        if status == MAGILL_NOT_POSITIVE_DEFINITE:
+            raise GatingInputError(f"innovation covariance not positive definite in record seq={record.seq}")
+        if status == MAGILL_UNHANDLED_DIMENSION:
+            loglik = gaussian_log_likelihood(record)
+            self._step(loglik, active)
+            weights = self._weights()
+        elif self.params.lower_bound is not None:
+            self._logp = apply_lower_bound(logp, active, self.params.lower_bound)
+            weights = self._weights()
+        else:
+            self._logp = logp
+        update = self._make_update(record, self._count, weights, statistic=loglik)
         self._count += 1
         return update
 

@@ -4,3 +4,7 @@ kernels lazily: :func:`fsw.kernels.on_first_call`)."""
 #: :func:`fsw.kernels.camera.pinhole_image`: the image is good; a line of sight is zero; a target
 #: is behind the camera.
 OK, AT_TARGET, BEHIND_CAMERA = 0, 1, 2
+
+#: :func:`fsw.kernels.magill.magill_update`: done; an innovation covariance is not positive
+#: definite; a measurement of more than two components (left to the Python form).
+MAGILL_OK, MAGILL_NOT_POSITIVE_DEFINITE, MAGILL_UNHANDLED_DIMENSION = 0, 1, 2
