@@ -8,3 +8,7 @@ OK, AT_TARGET, BEHIND_CAMERA = 0, 1, 2
 #: :func:`fsw.kernels.magill.magill_update`: done; an innovation covariance is not positive
 #: definite; a measurement of more than two components (left to the Python form).
 MAGILL_OK, MAGILL_NOT_POSITIVE_DEFINITE, MAGILL_UNHANDLED_DIMENSION = 0, 1, 2
+
+#: :func:`fsw.kernels.bplane.bplane_complex_step`: done; the state has no B-plane (bound, radial,
+#: asymptote along the pole, or a non-finite result).
+BPLANE_OK, BPLANE_DEGENERATE = 0, 1

@@ -16,6 +16,9 @@ sinh F = (r·v) / (e √(μ|a|)), M = e sinh F − F, n = √(μ/|a|³), t_p = t
 The 3×6 Jacobian ∂(B·R, B·T, t_p)/∂(r, v) is the complex-step derivative (Squire & Trapp 1998):
 every operation above is analytic, so Im f(x + i h eₖ)/h is the exact k-th column to rounding,
 with no subtraction error — and independent of the central differences the tests check it with.
+The FSW evaluates it in one compiled call (:mod:`fsw.kernels.bplane`, the formulas below on
+scalars); :func:`_bplane_values` is the numpy form, which gives the ground the truth's B-plane
+without a compiler and the tests the kernel's reference.
 """
 
 from __future__ import annotations
@@ -27,6 +30,10 @@ import numpy as np
 
 from fsw.astro.constants import GM_MARS
 from fsw.astro.mars import MARS_POLE_DEC_DEG, MARS_POLE_RA_DEG
+from fsw.kernels import on_first_call
+from fsw.kernels.codes import BPLANE_OK
+
+bplane_complex_step = on_first_call(globals(), "bplane_complex_step", "fsw.kernels.bplane")
 
 
 def mars_pole() -> np.ndarray:
@@ -87,10 +94,10 @@ class BPlaneTarget:
     periapsis_sigma_s: float
 
 
-def bplane_jacobian(position_km: np.ndarray, velocity_km_s: np.ndarray, mu: float = GM_MARS,
-                    pole: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(values, J): values = (B·R, B·T, t_p − t, v∞) and J = ∂(B·R, B·T, t_p − t)/∂(r, v), 3×6,
-    by the complex step (see the module docstring). Raises :class:`NotHyperbolic`."""
+def bplane_values(position_km: np.ndarray, velocity_km_s: np.ndarray, mu: float = GM_MARS,
+                  pole: np.ndarray | None = None) -> np.ndarray:
+    """(B·R, B·T, t_p − t, v∞) of one state, in numpy (the ground's B-plane of the truth: no
+    compiled kernel in a ground tool). Raises :class:`NotHyperbolic`."""
     k = mars_pole() if pole is None else np.asarray(pole, dtype=float)
     x = np.concatenate([np.asarray(position_km, dtype=float), np.asarray(velocity_km_s, dtype=float)])
     r = float(np.linalg.norm(x[0:3]))
@@ -99,16 +106,23 @@ def bplane_jacobian(position_km: np.ndarray, velocity_km_s: np.ndarray, mu: floa
     with np.errstate(all="raise"):
         try:
             values = _bplane_values(x, mu, k)
-            step = 1e-30 * max(1.0, float(np.max(np.abs(x))))
-            # the six complex steps at once: column j of xc is x + i·step·e_j (every operation
-            # of _bplane_values is elementwise over the trailing axis)
-            xc = np.repeat(x.astype(complex)[:, None], 6, axis=1)
-            xc[np.arange(6), np.arange(6)] += 1j * step
-            jac = np.imag(_bplane_values(xc, mu, k[:, None])[:3]) / step
         except FloatingPointError as exc:
             raise NotHyperbolic(f"degenerate hyperbola ({exc})") from None
-    if not (np.all(np.isfinite(values)) and np.all(np.isfinite(jac))):
+    if not np.all(np.isfinite(values)):
         raise NotHyperbolic("degenerate hyperbola")
+    return values
+
+
+def bplane_jacobian(position_km: np.ndarray, velocity_km_s: np.ndarray, mu: float = GM_MARS,
+                    pole: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(values, J): values = (B·R, B·T, t_p − t, v∞) and J = ∂(B·R, B·T, t_p − t)/∂(r, v), 3×6,
+    by the complex step (see the module docstring) in one compiled call
+    (:func:`fsw.kernels.bplane.bplane_complex_step`). Raises :class:`NotHyperbolic`."""
+    k = mars_pole() if pole is None else np.asarray(pole, dtype=float)
+    x = np.concatenate([np.asarray(position_km, dtype=float), np.asarray(velocity_km_s, dtype=float)])
+    values, jac = np.empty(4), np.empty((3, 6))
+    if bplane_complex_step(x, float(mu), np.ascontiguousarray(k, dtype=float), values, jac) != BPLANE_OK:
+        raise NotHyperbolic("the state is not on a hyperbola about Mars (bound, radial or degenerate)")
     return values, jac
 
 

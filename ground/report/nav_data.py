@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from fsw.interface import messages as m
-from fsw.models.bplane import NotHyperbolic, bplane_jacobian
+from fsw.models.bplane import NotHyperbolic, bplane_values
 
 
 def _sample_array(field: str, dtype: type) -> cached_property[np.ndarray]:
@@ -149,7 +149,7 @@ def bplane_traces(by_label: dict[str, list[m.BPlane]], truth: list[m.Truth]) -> 
             val = (np.nan, np.nan, np.nan)
             if tr is not None:
                 try:
-                    v, _ = bplane_jacobian(np.array(tr.position_km), np.array(tr.velocity_km_s))
+                    v = bplane_values(np.array(tr.position_km), np.array(tr.velocity_km_s))
                     val = (float(v[0]), float(v[1]), float(t_s + v[2]))
                 except NotHyperbolic:
                     pass
