@@ -216,6 +216,13 @@ class EKFStack:
             self._q_pick = ((rows * n + np.array([f[0] for f in feeds])).ravel(),
                             (rows * nq + np.array(pairs, dtype=np.int64)).ravel(),
                             (rows * n + np.array([feeds[qi][1] for qi in pairs], dtype=np.int64)).ravel())
+        #: the same picks as columns, for the compiled steps that write the drivers of the state
+        #: they update (``fsw.kernels.leg.drivers_into``): driver j is x[:, first[j]] (+ x[:, second[j]]
+        #: where second[j] ≥ 0); empty where the picks do not apply
+        self.driver_columns: tuple[np.ndarray, np.ndarray] = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
+        if self._q_pick is not None:
+            self.driver_columns = (np.array([f[0] for f in feeds], dtype=np.int64),
+                                   np.array([f[1] if len(f) == 2 else -1 for f in feeds], dtype=np.int64))
         self._clock = (L.slices["clock"].start, L.slices["clock"].stop) if L.has("clock") else None
         # the drivers of a state array the stack made and has not written since: the time update
         # copies the parameter columns, so its output has its input's q
@@ -324,6 +331,14 @@ class EKFStack:
         N, n = x.shape
         return (x, P, q, self.propagator.table(self.t, t1),
                 np.empty((N, 6)), np.empty((N, 6, 6 + q.shape[1])), np.empty((N, n)), np.empty((N, n, n)))
+
+    def take_update(self, x: np.ndarray, P: np.ndarray, q: np.ndarray) -> None:
+        """Take the state a compiled step's update made, with the drivers it wrote of it
+        (``q``, read only where :attr:`driver_columns` are not empty)."""
+        self.x = x
+        self.P = P
+        if self._q_pick is not None:
+            self._q_known = (x, q)
 
     def end_leg(self, t1: float, x0: np.ndarray, z1: np.ndarray, q: np.ndarray, Y: np.ndarray, x1: np.ndarray,
                 P1: np.ndarray) -> None:

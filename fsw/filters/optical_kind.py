@@ -70,8 +70,10 @@ def optical_image_step(stack: EKFStack, target: str, t1: float, attitude_q: Arra
     focal, principal, light_time, aberration = stack.cameras
     c0, c1 = stack.clock_columns or (0, 0)
     prop = stack.propagator
+    first, second = stack.driver_columns
     update = (np.empty((N, 2)), np.empty((N, n)), np.empty((N, n, n)), np.empty((N, 2, 2)), np.empty(N),
               np.empty(N, dtype=bool))
+    q_new = np.empty((N, first.size))
     code = optical_step(fly, t0, t1, x, P, q, *prop.forces, *table, prop.GM,
                         stack.state_sources, c0, c1, stack.clock_q, stack.snc_psd, z1, Y, x_prop, P_prop,
                         np.ascontiguousarray(r_T, dtype=float), np.ascontiguousarray(v_T + Vm, dtype=float),
@@ -79,14 +81,13 @@ def optical_image_step(stack: EKFStack, target: str, t1: float, attitude_q: Arra
                         np.ascontiguousarray(focal, dtype=float), np.ascontiguousarray(principal, dtype=float),
                         np.ascontiguousarray(light_time, dtype=bool), np.ascontiguousarray(aberration, dtype=bool),
                         C_KM_S, work.g, work.v, work.h, work.Hr, work.Hv, work.H, scale, sigma, work.R,
-                        value, does, gate, *update)
+                        value, does, gate, *update, first, second, q_new)
     if fly:
         stack.end_leg(t1, x, z1, q, Y, x_prop, P_prop)
     if code != OK:
         return None
     residual, x_new, P_new, S, chi2, processed = update
-    stack.x = x_new
-    stack.P = P_new
+    stack.take_update(x_new, P_new, q_new)
     return residual, S, chi2, processed
 
 

@@ -163,7 +163,8 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
     herm, t_first, step, lo_ok, hi_ok = env.hermite_window(min(t1, start) - 1.0, max(t1, start) + 1.0)
     c0, c1 = stack.clock_columns or (0, 0)
     u = w.uplinks
-    update = _update_arrays(N, n)
+    first, second = stack.driver_columns
+    update, q_new = _update_arrays(N, n), np.empty((N, first.size))
     added = _clock_variance(stack, count_s)[0]
     src = stack.state_sources
     status = doppler_step(fly, t0, t1, x, P, q, *prop.forces, *table, prop.GM, q_leg, from_leg, *back,
@@ -171,15 +172,15 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
                           count_s, w.z, w.Yb, w.tt, w.delta,
                           herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
                           u.r_sc, u.v_mars, u.t_g, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
-                          w.h, w.H, scale, sigma, added, w.R, value, does, gate, *update)
+                          w.h, w.H, scale, sigma, added, w.R, value, does, gate, *update, first, second, q_new)
     if fly:
         stack.end_leg(t1, x, z1, q, Y, x_prop, P_prop)
     if status != 0:
         doppler_finish(w.tt, u.t_g, u.r_sc, w.z, u.v_mars, w.delta, *transmit_tables(env, station, u.t_g),
                        OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
                        w.Yb, x_prop, P_prop, count_s, src, c0, c1, w.h, w.H, scale, sigma, added, w.R,
-                       value, does, gate, *update)
-    return _updated(stack, update)
+                       value, does, gate, *update, first, second, q_new)
+    return _updated(stack, update, q_new)
 
 
 def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.ndarray, sigma: float,
@@ -207,27 +208,30 @@ def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.n
     w = stack.range_work
     u = w.uplinks
     N, n = x.shape
-    update = _update_arrays(N, n)
+    first, second = stack.driver_columns
+    update, q_new = _update_arrays(N, n), np.empty((N, first.size))
     status = range_step(t0, t1, x, P, q, *prop.forces, *table, prop.GM,
                         stack.state_sources, c0, c1, stack.clock_q, stack.snc_psd, z1, Y, x_prop, P_prop,
                         w.z, w.tt, w.delta,
                         herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
                         u.r_sc, u.v_mars, u.t_g, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
-                        clock is not None, bias, w.h, w.H, scale, sigma, w.R, value, does, gate, *update)
+                        clock is not None, bias, w.h, w.H, scale, sigma, w.R, value, does, gate, *update, first, second,
+                        q_new)
     stack.end_leg(t1, x, z1, q, Y, x_prop, P_prop)
     if status != 0:
         range_finish(w.tt, u.t_g, u.r_sc, w.z, u.v_mars, w.delta, *transmit_tables(env, station, u.t_g),
                      OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
                      x_prop, P_prop, clock is not None, c0, bias, w.h, w.H, scale, sigma, w.R,
-                     value, does, gate, *update)
-    return _updated(stack, update)
+                     value, does, gate, *update, first, second, q_new)
+    return _updated(stack, update, q_new)
 
 
-def _updated(stack: EKFStack, update: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Take a compiled step's updated states into the stack; (residual, S, chi2, processed)."""
+def _updated(stack: EKFStack, update: tuple[np.ndarray, ...], q_new: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Take a compiled step's updated states (and their drivers) into the stack; (residual, S, chi2,
+    processed)."""
     residual, x_new, P_new, S, chi2, processed = update
-    stack.x = x_new
-    stack.P = P_new
+    stack.take_update(x_new, P_new, q_new)
     return residual, S, chi2, processed
 
 

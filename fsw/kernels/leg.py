@@ -27,6 +27,22 @@ LEG = f"{F}, {F}, {M}, {T}, {M}, {V}, {V}, {T}, int64, {V}, {F}, {F}, {F}, {F}, 
 TRANSITION = f"int64[::1], int64, int64, {M}, {V}, {M}, {T}, {M}, {T}"
 #: y, does, gate and the outputs of the Joseph update (residual ... processed)
 UPDATE = f"{V}, boolean[::1], {V}, {M}, {M}, {T}, {T}, {V}, boolean[::1]"
+#: the driver columns (``EKFStack.driver_columns``) and the drivers of the updated state (out)
+DRIVERS = f"int64[::1], int64[::1], {M}"
+
+
+@njit(cache=True)
+def drivers_into(x, first, second, q):
+    """The acceleration drivers q (N, n_q) of the states x (N, n), as ``EKFStack.drivers`` picks
+    them: q[:, j] = x[:, first[j]], plus x[:, second[j]] where second[j] ≥ 0 (nothing written for
+    an empty ``first``). Written by the steps for the state they update, so the next leg does not
+    pick them again."""
+    for i in range(x.shape[0]):
+        for j in range(first.shape[0]):
+            v = x[i, first[j]]
+            if second[j] >= 0:
+                v += x[i, second[j]]
+            q[i, j] = v
 
 
 @njit(cache=True)

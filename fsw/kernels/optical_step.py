@@ -29,16 +29,16 @@ stamp_with_all_kernel_sources()
 from fsw.kernels.camera import pinhole_image  # noqa: E402  (after the cache set-up)
 from fsw.kernels.codes import OK  # noqa: E402
 from fsw.kernels.joseph_update import joseph_update  # noqa: E402
-from fsw.kernels.leg import fly_leg  # noqa: E402
+from fsw.kernels.leg import drivers_into, fly_leg  # noqa: E402
 # the signature fragments every step shares
 from fsw.kernels.leg import F as _F, M as _M, T as _T, V as _V  # noqa: E402
-from fsw.kernels.leg import LEG as _LEG, TRANSITION as _TRANSITION, UPDATE as _UPDATE  # noqa: E402
+from fsw.kernels.leg import DRIVERS as _DRIVERS, LEG as _LEG, TRANSITION as _TRANSITION, UPDATE as _UPDATE  # noqa: E402
 
 # r_T, w, v_mars, C, focal, principal, light_time, aberration, c_km_s
 _CAMERA = f"{_V}, {_V}, {_V}, {_M}, {_V}, {_M}, boolean[::1], boolean[::1], {_F}"
 _OPTICAL_STEP = (
     f"int64(boolean, {_LEG}, {_TRANSITION}, {_CAMERA}, "
-    f"{_M}, {_M}, {_M}, {_T}, {_T}, {_T}, {_V}, {_V}, {_T}, {_UPDATE})"  # g, v, h, Hr, Hv, H, scale, sigma, R
+    f"{_M}, {_M}, {_M}, {_T}, {_T}, {_T}, {_V}, {_V}, {_T}, {_UPDATE}, {_DRIVERS})"  # g, v, h, Hr, Hv, H, scale, sigma, R
 )
 
 
@@ -48,7 +48,7 @@ def optical_step(fly, t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_bat
                  src, c0, c1, clock_q, snc, z1, Y, x_prop, P_prop,
                  r_T, w, v_mars, C, focal, principal, light_time, aberration, c_km_s,
                  g, v, h, Hr, Hv, H, scale, sigma, R,
-                 y, does, gate, residual, x_out, P_out, S, chi2, processed):
+                 y, does, gate, residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out):
     """One image at t1 after a leg from t0 (see the module docstring): OK when done, else the
     camera's code (the leg is flown; nothing else is written).
 
@@ -59,7 +59,8 @@ def optical_step(fly, t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_bat
     sigma scales (N,), the reported sigmas (2,); the measurement y (2,), which filters update
     (``does``) and their chi-square gates.
     Out: the leg (z1, Y, x_prop, P_prop at t1), g and v (N, 3), h (N, 2), Hr and Hv (N, 2, 3),
-    H (N, 2, n), R (N, 2, 2) and the update (the arguments of ``joseph_update`` after ``gate``)."""
+    H (N, 2, n), R (N, 2, 2), the update (the arguments of ``joseph_update`` after ``gate``) and
+    the drivers of the updated states (``drivers_into``)."""
     if fly:
         fly_leg(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin, kappa, max_step,
                 frozen_tol, tab_p, tab_v, tab_t0, tab_step, gm, src, c0, c1, clock_q, snc, z1, Y, x_prop, P_prop)
@@ -82,4 +83,5 @@ def optical_step(fly, t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_bat
             for b in range(2):
                 R[i, a, b] = var * (1.0 if a == b else 0.0)
     joseph_update(x_prop, P_prop, H, R, y, h, does, gate, residual, x_out, P_out, S, chi2, processed)
+    drivers_into(x_out, q_first, q_second, q_out)
     return OK

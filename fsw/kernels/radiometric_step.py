@@ -39,7 +39,8 @@ from fsw.kernels.joseph_update import joseph_update  # noqa: E402
 from fsw.kernels.leg import fly_leg  # noqa: E402
 # the signature fragments every step shares
 from fsw.kernels.leg import F as _F, M as _M, T as _T, V as _V  # noqa: E402
-from fsw.kernels.leg import LEG as _LEG, TABLE as _TABLE, TRANSITION as _TRANSITION, UPDATE as _UPDATE  # noqa: E402
+from fsw.kernels.leg import DRIVERS as _DRIVERS, LEG as _LEG, TABLE as _TABLE, TRANSITION as _TRANSITION  # noqa: E402
+from fsw.kernels.leg import UPDATE as _UPDATE, drivers_into  # noqa: E402
 from fsw.kernels.light_time import uplink_light_time, uplink_solution  # noqa: E402
 from fsw.kernels.one_way_range import range_prediction  # noqa: E402
 from fsw.kernels.variational_rk4 import rk4_variational  # noqa: E402
@@ -52,20 +53,20 @@ _DOPPLER_STEP = (
     f"int64(boolean, {_LEG}, {_M}, boolean, {_TABLE}, {_TRANSITION}, "
     f"{_F}, {_T}, {_T}, {_V}, {_V}, "  # count_s, z, Yb, tt, delta
     f"{_HERMITE}, {_F}, {_F}, {_M}, {_LIGHT_TIME}, {_RECEPTION}, {_SOLUTION}, "
-    f"{_M}, {_T}, {_V}, {_F}, {_V}, {_T}, {_UPDATE})"  # h, H, scale, sigma, added, R
+    f"{_M}, {_T}, {_V}, {_F}, {_V}, {_T}, {_UPDATE}, {_DRIVERS})"  # h, H, scale, sigma, added, R
 )
 _DOPPLER_FINISH = (
     f"void({_V}, {_V}, {_T}, {_T}, {_M}, {_V}, {_HERMITE}, {_M}, {_LIGHT_TIME}, {_SOLUTION}, "
-    f"{_T}, {_M}, {_T}, {_F}, int64[::1], int64, int64, {_M}, {_T}, {_V}, {_F}, {_V}, {_T}, {_UPDATE})"
+    f"{_T}, {_M}, {_T}, {_F}, int64[::1], int64, int64, {_M}, {_T}, {_V}, {_F}, {_V}, {_T}, {_UPDATE}, {_DRIVERS})"
 )
 _RANGE_STEP = (
     f"int64({_LEG}, {_TRANSITION}, {_T}, {_V}, {_V}, "  # z, tt, delta
     f"{_HERMITE}, {_F}, {_F}, {_M}, {_LIGHT_TIME}, {_RECEPTION}, {_SOLUTION}, "
-    f"boolean, int64, {_M}, {_T}, {_V}, {_F}, {_T}, {_UPDATE})"  # has_clock, bias, h, H, scale, sigma, R
+    f"boolean, int64, {_M}, {_T}, {_V}, {_F}, {_T}, {_UPDATE}, {_DRIVERS})"  # has_clock, bias, h, H, scale, sigma, R
 )
 _RANGE_FINISH = (
     f"void({_V}, {_V}, {_T}, {_T}, {_M}, {_V}, {_HERMITE}, {_M}, {_LIGHT_TIME}, {_SOLUTION}, "
-    f"{_M}, {_T}, boolean, int64, int64, {_M}, {_T}, {_V}, {_F}, {_T}, {_UPDATE})"
+    f"{_M}, {_T}, boolean, int64, int64, {_M}, {_T}, {_V}, {_F}, {_T}, {_UPDATE}, {_DRIVERS})"
 )
 
 
@@ -80,13 +81,15 @@ def _reception(x_prop, c0, c1, z, delta):
 
 @njit(cache=True)
 def _noise_and_update(scale, sigma, added, with_added, x_prop, P_prop, H, R, y, h, does, gate,
-                      residual, x_out, P_out, S, chi2, processed):
-    """Step 4 for a scalar measurement: R = (s σ)² (+ the added variance) per filter, then Joseph."""
+                      residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out):
+    """Step 4 for a scalar measurement: R = (s σ)² (+ the added variance) per filter, then Joseph,
+    then the drivers of the updated states."""
     for i in range(x_prop.shape[0]):
         v = scale[i] * sigma
         v = v * v
         R[i, 0, 0] = v + added[i] if with_added else v
     joseph_update(x_prop, P_prop, H, R, y, h, does, gate, residual, x_out, P_out, S, chi2, processed)
+    drivers_into(x_out, q_first, q_second, q_out)
 
 
 @njit(_DOPPLER_STEP, cache=True)
@@ -97,7 +100,7 @@ def doppler_step(fly, t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_bat
                  herm, t_first, step, lo_ok, hi_ok, node, t_grid, omega, gm_sun, c_km_s, iterations,
                  r_sc, v_mars, t_g, rho, ku, d_rho_d_v, d_rho_d_delta,
                  h, H, scale, sigma, added, R,
-                 y, does, gate, residual, x_out, P_out, S, chi2, processed):
+                 y, does, gate, residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out):
     """One Doppler count (see the module docstring): 0 when done, 1 when the transmit epochs need
     another table or station node (then :func:`doppler_finish`).
 
@@ -115,7 +118,8 @@ def doppler_step(fly, t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_bat
     (``does``) and their chi-square gates.
     Out: the leg (z1 (N, 6), Y, x_prop, P_prop at t1), the count's ends z (2, N, 6), Yb, tt,
     δ (N,), the light-time arrays, h (N, 1), H (N, 1, n), R (N, 1, 1), and the update (the
-    arguments of ``joseph_update`` after ``gate``)."""
+    arguments of ``joseph_update`` after ``gate``) and the drivers of the updated
+    states (``drivers_into``)."""
     if fly:
         fly_leg(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, poly_origin, kappa, max_step,
                 frozen_tol, tab_p, tab_v, tab_t0, tab_step, gm, src, c0, c1, clock_q, snc, z1, Y, x_prop, P_prop)
@@ -135,7 +139,7 @@ def doppler_step(fly, t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_bat
         return 1
     doppler_prediction(rho, ku, d_rho_d_delta, delta, Yb, src, x_prop, count_s, c0, c1, c_km_s, h, H)
     _noise_and_update(scale, sigma, added, True, x_prop, P_prop, H, R, y, h, does, gate,
-                      residual, x_out, P_out, S, chi2, processed)
+                      residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out)
     return 0
 
 
@@ -143,7 +147,7 @@ def doppler_step(fly, t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_bat
 def doppler_finish(tt, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, omega, gm_sun, c_km_s,
                    iterations, rho, ku, d_rho_d_v, d_rho_d_delta,
                    Yb, x_prop, P_prop, count_s, src, c0, c1, h, H, scale, sigma, added, R,
-                   y, does, gate, residual, x_out, P_out, S, chi2, processed):
+                   y, does, gate, residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out):
     """The rest of a count :func:`doppler_step` left at 1, with the table and station node of its
     transmit epochs t_g: the light time from the reception it solved
     (:func:`fsw.kernels.light_time.uplink_light_time`), then steps 3 and 4."""
@@ -151,7 +155,7 @@ def doppler_finish(tt, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t
                       iterations, rho, ku, d_rho_d_v, d_rho_d_delta)
     doppler_prediction(rho, ku, d_rho_d_delta, delta, Yb, src, x_prop, count_s, c0, c1, c_km_s, h, H)
     _noise_and_update(scale, sigma, added, True, x_prop, P_prop, H, R, y, h, does, gate,
-                      residual, x_out, P_out, S, chi2, processed)
+                      residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out)
 
 
 @njit(_RANGE_STEP, cache=True)
@@ -162,7 +166,7 @@ def range_step(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, pol
                herm, t_first, step, lo_ok, hi_ok, node, t_grid, omega, gm_sun, c_km_s, iterations,
                r_sc, v_mars, t_g, rho, ku, d_rho_d_v, d_rho_d_delta,
                has_clock, bias, h, H, scale, sigma, R,
-               y, does, gate, residual, x_out, P_out, S, chi2, processed):
+               y, does, gate, residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out):
     """One range measurement at t1 after a leg from t0 (see the module docstring): 0 when done, 1
     when its transmit epoch needs another table or station node (then :func:`range_finish`).
     The arguments are :func:`doppler_step`'s for a flown leg; z (1, N, 6) and tt (1,) hold the one
@@ -177,7 +181,7 @@ def range_step(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, pol
         return 1
     range_prediction(rho, ku, d_rho_d_v, d_rho_d_delta, delta, x_prop, has_clock, c0, bias, c_km_s, h, H)
     _noise_and_update(scale, sigma, delta, False, x_prop, P_prop, H, R, y, h, does, gate,  # no added variance
-                      residual, x_out, P_out, S, chi2, processed)
+                      residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out)
     return 0
 
 
@@ -185,10 +189,10 @@ def range_step(t0, t1, x, P, q, srp, acs_nominal, acs_body, deg, poly_batch, pol
 def range_finish(tt, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, omega, gm_sun, c_km_s,
                  iterations, rho, ku, d_rho_d_v, d_rho_d_delta,
                  x_prop, P_prop, has_clock, c0, bias, h, H, scale, sigma, R,
-                 y, does, gate, residual, x_out, P_out, S, chi2, processed):
+                 y, does, gate, residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out):
     """The rest of a range measurement :func:`range_step` left at 1 (as :func:`doppler_finish`)."""
     uplink_light_time(tt, t_g, r_sc, z, v_mars, delta, herm, t_first, step, node, t_grid, omega, gm_sun, c_km_s,
                       iterations, rho, ku, d_rho_d_v, d_rho_d_delta)
     range_prediction(rho, ku, d_rho_d_v, d_rho_d_delta, delta, x_prop, has_clock, c0, bias, c_km_s, h, H)
     _noise_and_update(scale, sigma, delta, False, x_prop, P_prop, H, R, y, h, does, gate,  # no added variance
-                      residual, x_out, P_out, S, chi2, processed)
+                      residual, x_out, P_out, S, chi2, processed, q_first, q_second, q_out)
