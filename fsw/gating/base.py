@@ -112,8 +112,14 @@ def log_normalize(log_w: np.ndarray, mask: np.ndarray) -> np.ndarray:
         # exp, sum and log stay numpy's, so the result is the masked form's to the bit.
         top = max(log_w.tolist())
         terms = np.exp(log_w - top)
-        # numpy adds up to three terms left to right, as Python does (more: in its own order)
-        total = sum(terms.tolist()) if terms.size <= 3 else terms.sum()
+        # numpy adds up to three terms left to right from 0.0 (more: in its own order); written
+        # out, not sum(): from Python 3.12 on, sum() of floats compensates its rounding
+        if terms.size <= 3:
+            total = 0.0
+            for term in terms.tolist():
+                total += term
+        else:
+            total = terms.sum()
         return log_w - (top + np.log(total))
     out = np.full(log_w.shape, -np.inf)
     if not np.any(mask):
