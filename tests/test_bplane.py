@@ -118,14 +118,24 @@ def test_compiled_targeting_is_the_numpy_form_to_rounding():
             np.testing.assert_allclose(jac[:, j], ref[:, j], rtol=1e-11, atol=1e-12 * np.max(np.abs(ref[:, j])))
 
 
-@pytest.mark.parametrize("case", ["bound", "radial", "at the centre"])
+@pytest.mark.parametrize("case", ["bound", "radial", "exactly radial", "at the centre", "NaN position",
+                                  "infinite velocity", "infinite position"])
 def test_compiled_targeting_refuses_what_has_no_bplane(case):
-    if case == "bound":
-        r, v = np.array([10000.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
-    elif case == "radial":
-        r = np.array([1.0e5, 2.0e4, -3.0e4])
-        v = -4.0 * r / np.linalg.norm(r)  # straight in: h = 0
-    else:
-        r, v = np.zeros(3), np.array([0.0, 5.0, 0.0])
+    """Refused as the numpy form refuses them (NotHyperbolic), whichever way the kernel meets
+    them: its checks, or a division by an exact zero."""
+    from fsw.models.bplane import bplane_values
+
+    r, v = {
+        "bound": ([10000.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+        "radial": ([1.0e5, 2.0e4, -3.0e4], list(-4.0 * np.array([1.0e5, 2.0e4, -3.0e4]) / np.linalg.norm([1.0e5, 2.0e4, -3.0e4]))),
+        "exactly radial": ([1.0e5, 0.0, 0.0], [-5.0, 0.0, 0.0]),  # h = 0 to the bit
+        "at the centre": ([0.0, 0.0, 0.0], [0.0, 5.0, 0.0]),
+        "NaN position": ([np.nan, 1.0e5, 0.0], [1.0, 2.0, 3.0]),
+        "infinite velocity": ([1.0e5, 0.0, 0.0], [np.inf, 0.0, 0.0]),
+        "infinite position": ([np.inf, 1.0e5, 0.0], [-3.0, 1.0, 0.0]),
+    }[case]
+    r, v = np.array(r), np.array(v)
     with pytest.raises(NotHyperbolic):
         bplane_jacobian(r, v)
+    with pytest.raises(NotHyperbolic):
+        bplane_values(r, v)

@@ -73,8 +73,13 @@ def _values(r0, r1, r2, v0, v1, v2, mu, k0, k1, k2):
 def bplane_complex_step(x, mu, pole, values, jac):
     """x = [r, v] (6,) Mars-centred, μ and the pole k̂ (3,) → ``values`` (B·R, B·T, t_p − t, v∞)
     and ``jac`` ∂(B·R, B·T, t_p − t)/∂(r, v) (3, 6). Returns ``BPLANE_OK``, or
-    ``BPLANE_DEGENERATE`` (outputs unspecified) for a state that is not on a hyperbola (energy
-    ≤ 0, e ≤ 1), a radial one (h = 0), an asymptote along the pole, or any non-finite result."""
+    ``BPLANE_DEGENERATE`` (outputs unspecified) for a non-finite state, one that is not on a
+    hyperbola (energy ≤ 0, e ≤ 1), a radial one (h = 0), an asymptote along the pole, or any
+    non-finite result. A division by an exact zero on the way (e, |h| or |Ŝ × k̂|) raises
+    ``ZeroDivisionError``, numba's error model: the caller takes it as degenerate too."""
+    for i in range(6):
+        if not np.isfinite(x[i]):
+            return BPLANE_DEGENERATE
     k0, k1, k2 = pole[0], pole[1], pole[2]
     rr = _dot(x[0], x[1], x[2], x[0], x[1], x[2])
     if not rr > 0.0 or not _dot(x[3], x[4], x[5], x[3], x[4], x[5]) / 2.0 - mu / np.sqrt(rr) > 0.0:

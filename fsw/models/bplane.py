@@ -31,7 +31,7 @@ import numpy as np
 from fsw.astro.constants import GM_MARS
 from fsw.astro.mars import MARS_POLE_DEC_DEG, MARS_POLE_RA_DEG
 from fsw.kernels import on_first_call
-from fsw.kernels.codes import BPLANE_OK
+from fsw.kernels.codes import BPLANE_DEGENERATE, BPLANE_OK
 
 bplane_complex_step = on_first_call(globals(), "bplane_complex_step", "fsw.kernels.bplane")
 
@@ -121,8 +121,12 @@ def bplane_jacobian(position_km: np.ndarray, velocity_km_s: np.ndarray, mu: floa
     k = mars_pole() if pole is None else np.asarray(pole, dtype=float)
     x = np.concatenate([np.asarray(position_km, dtype=float), np.asarray(velocity_km_s, dtype=float)])
     values, jac = np.empty(4), np.empty((3, 6))
-    if bplane_complex_step(x, float(mu), np.ascontiguousarray(k, dtype=float), values, jac) != BPLANE_OK:
-        raise NotHyperbolic("the state is not on a hyperbola about Mars (bound, radial or degenerate)")
+    try:
+        code = bplane_complex_step(x, float(mu), np.ascontiguousarray(k, dtype=float), values, jac)
+    except ZeroDivisionError:  # an exact zero e, |h| or |Ŝ × k̂|: as the numpy form's division error
+        code = BPLANE_DEGENERATE
+    if code != BPLANE_OK:
+        raise NotHyperbolic("the state is not on a hyperbola about Mars (not finite, bound, radial or degenerate)")
     return values, jac
 
 
