@@ -208,21 +208,16 @@ class EKFStack:
         feeds: list[list[int]] = [[] for _ in range(nq)]
         for col, qi in self._q_cols:
             feeds[qi].append(col)
-        # (flat indices into a C-ordered (N, n) x: first feeds, where q has a second feed, the second)
-        self._q_pick: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        if nq > 0 and all(1 <= len(f) <= 2 for f in feeds):
-            rows = np.arange(N)[:, None]
-            pairs = [qi for qi in range(nq) if len(feeds[qi]) == 2]
-            self._q_pick = ((rows * n + np.array([f[0] for f in feeds])).ravel(),
-                            (rows * nq + np.array(pairs, dtype=np.int64)).ravel(),
-                            (rows * n + np.array([feeds[qi][1] for qi in pairs], dtype=np.int64)).ravel())
-        #: the same picks as columns, for the compiled steps that write the drivers of the state
-        #: they update (``fsw.kernels.leg.drivers_into``): driver j is x[:, first[j]] (+ x[:, second[j]]
-        #: where second[j] ≥ 0); empty where the picks do not apply
+        #: the picks as columns: driver j is x[:, first[j]] (+ x[:, second[j]] where second[j] ≥ 0);
+        #: empty where a driver has more feeds (q is then x @ _state_to_q). The compiled steps write
+        #: the drivers of the state they update with them (``fsw.kernels.leg.drivers_into``).
         self.driver_columns: tuple[np.ndarray, np.ndarray] = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
-        if self._q_pick is not None:
+        self._driver_pairs = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))  # (j, second[j]) with two feeds
+        if nq > 0 and all(1 <= len(f) <= 2 for f in feeds):
             self.driver_columns = (np.array([f[0] for f in feeds], dtype=np.int64),
                                    np.array([f[1] if len(f) == 2 else -1 for f in feeds], dtype=np.int64))
+            pairs = [qi for qi in range(nq) if len(feeds[qi]) == 2]
+            self._driver_pairs = (np.array(pairs, dtype=np.int64), np.array([feeds[qi][1] for qi in pairs], dtype=np.int64))
         self._clock = (L.slices["clock"].start, L.slices["clock"].stop) if L.has("clock") else None
         # the drivers of a state array the stack made and has not written since: the time update
         # copies the parameter columns, so its output has its input's q
@@ -274,15 +269,14 @@ class EKFStack:
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
         """Acceleration drivers q (N, n_q) of the state: SRP scale, ACS magnitude and tilts, polynomial."""
         x = self.x if x is None else x
-        pick = self._q_pick
-        if pick is None or x.shape != self.x.shape:
+        first = self.driver_columns[0]
+        if first.size == 0:
             return np.ascontiguousarray(x @ self._state_to_q)
-        first, pairs, second = pick
-        flat = x.ravel()  # a view when x is C-ordered
-        q = flat[first]
+        q = np.ascontiguousarray(x[:, first])  # the kernels take q C-ordered; x[:, cols] is not
+        pairs, second = self._driver_pairs
         if pairs.size:
-            q[pairs] += flat[second]
-        return q.reshape(x.shape[0], -1)
+            q[:, pairs] += x[:, second]
+        return q
 
     def _propagate_interval(self, t1: float) -> None:
         h = t1 - self.t
@@ -337,7 +331,7 @@ class EKFStack:
         (``q``, read only where :attr:`driver_columns` are not empty)."""
         self.x = x
         self.P = P
-        if self._q_pick is not None:
+        if self.driver_columns[0].size:
             self._q_known = (x, q)
 
     def end_leg(self, t1: float, x0: np.ndarray, z1: np.ndarray, q: np.ndarray, Y: np.ndarray, x1: np.ndarray,

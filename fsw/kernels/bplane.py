@@ -8,9 +8,10 @@ state with the complex step i·h·eₖ for the Jacobian (Squire & Trapp 1998: ev
 analytic, so Im f(x + i h eₖ)/h is the k-th column to rounding). ``np.sqrt`` and ``np.arcsinh``
 serve the real and the complex evaluation alike.
 
-Against the numpy form the values agree to ~1e-15 relative and the Jacobian to ~1e-13
-(``tests/test_bplane.py``): the compiled square roots and inverse hyperbolic sine are not
-numpy's vectorised ones.
+The compiled square roots and inverse hyperbolic sine are not numpy's vectorised ones:
+``tests/test_bplane.py`` holds the values to the numpy form within 1e-13 relative and the
+Jacobian to the numpy form's complex step within 1e-11 (on the default run: B·R and B·T to the
+bit, their covariance within 9e-13).
 """
 
 from __future__ import annotations
