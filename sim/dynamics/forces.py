@@ -78,16 +78,18 @@ def make_rhs(
     sqrt = math.sqrt
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
-        rx, ry, rz = y[0], y[1], y[2]
+        # Python floats, not numpy scalars: the same IEEE operations, at a third of the cost each
+        # (the solver calls this ~6,500 times a run)
+        rx, ry, rz, vx, vy, vz = y.tolist()
         r2 = rx * rx + ry * ry + rz * rz
         c = -gm_mars / (r2 * sqrt(r2))
         a0, a1, a2 = c * rx, c * ry, c * rz
-        P = positions(t)
+        P = positions(t).tolist()
         for k in range(3):
             gm = gms[k]
             if gm == 0.0:
                 continue
-            px, py, pz = P[k, 0], P[k, 1], P[k, 2]
+            px, py, pz = P[k]
             dx, dy, dz = px - rx, py - ry, pz - rz
             d2 = dx * dx + dy * dy + dz * dz
             p2 = px * px + py * py + pz * pz
@@ -96,7 +98,7 @@ def make_rhs(
             a0 += cd * dx - cp * px
             a1 += cd * dy - cp * py
             a2 += cd * dz - cp * pz
-        sx, sy, sz = rx - P[0, 0], ry - P[0, 1], rz - P[0, 2]  # Sun -> spacecraft
+        sx, sy, sz = rx - P[0][0], ry - P[0][1], rz - P[0][2]  # Sun -> spacecraft
         s2 = sx * sx + sy * sy + sz * sz
         s1 = sqrt(s2)
         if k_srp:
@@ -106,7 +108,7 @@ def make_rhs(
             a2 += cs * sz
         if acs_on:
             zx, zy, zz = -sx / s1, -sy / s1, -sz / s1
-            ex, ey, ez = P[1, 0] - rx, P[1, 1] - ry, P[1, 2] - rz
+            ex, ey, ez = P[1][0] - rx, P[1][1] - ry, P[1][2] - rz
             ez_dot = ex * zx + ey * zy + ez * zz
             xx, xy, xz = ex - ez_dot * zx, ey - ez_dot * zy, ez - ez_dot * zz
             xn = sqrt(xx * xx + xy * xy + xz * xz)
@@ -115,7 +117,7 @@ def make_rhs(
             a0 += ax * xx + ay * yx + az * zx
             a1 += ax * xy + ay * yy + az * zy
             a2 += ax * xz + ay * yz + az * zz
-        return np.array((y[3], y[4], y[5], a0 + nx, a1 + ny, a2 + nz))
+        return np.array((vx, vy, vz, a0 + nx, a1 + ny, a2 + nz))
 
     return rhs
 
