@@ -97,6 +97,9 @@ def test_filter_and_decode_rows_print_json_lines():
     lin, ekf3, ekf6, dec = lines
     assert lin["ratio"] == pytest.approx(lin["reference"] / lin["ours"])
     assert lin["filters"] == 6 and lin["states"] == 15 and lin["measurement_dim"] == 2
+    # the arithmetic floor at numpy's batched-matmul rate, and the ratio it would allow
+    assert lin["dense_floor_us"] > 0
+    assert lin["ratio_ceiling"] == pytest.approx(lin["reference"] / lin["dense_floor_us"])
     assert ekf3["filters"] == 3 and ekf6["filters"] == 6 and ekf3["states"] == ekf6["states"] >= 15
     # stacking the filters must beat running them one by one
     assert lin["ratio"] > 2.0 and ekf6["ratio"] > 1.0

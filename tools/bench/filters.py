@@ -2,7 +2,9 @@
 
 * ``linear-bank-vs-filterpy``: one measurement update (predict + update) of a linear bank of
   N = 6 filters, n = 15 states, 2-D measurements, against a bank of FilterPy ``KalmanFilter``
-  objects doing the same work (predict + Joseph update each). Goal ≥ 20×.
+  objects doing the same work (predict + Joseph update each). Goal ≥ 20×. The row also gives
+  the arithmetic floor of that work at numpy's batched-matmul rate (:func:`dense_floor_us`) and
+  the ratio it would allow (``ratio_ceiling``).
 * ``ekf-update-vs-filterpy-N3`` / ``-N6``: the onboard EKF bank's measurement update
   (:meth:`fsw.filters.ekf.EKFStack.update`: gain, Joseph covariance, chi-square of every filter)
   of the ``nominal`` (3 filters) and ``acs-q`` (6 filters) banks, n = the bank's state count,
@@ -33,6 +35,7 @@ from fsw.filters.ekf import EKFStack
 from fsw.filters.kinds import FILTER_KINDS
 from fsw.filters.linear import LinearFilterBank
 from fsw.models.environment import Environment
+from tools.bench.core import matmul_rate
 from tools.bench.rows import Goal, make_row
 
 LINEAR_GOAL = Goal("cost", ">=", 20.0)
@@ -85,10 +88,24 @@ def bench_linear(N: int = 6, n: int = 15, m: int = 2, number: int = 400, repeat:
         t_ours = min(t_ours, _best_of(ours, number, 1))
         it = iter(zs)
         t_ref = min(t_ref, _best_of(reference, number, 1))
+    floor = dense_floor_us(N, n)
     return make_row("linear-bank-vs-filterpy", t_ours * 1e6, t_ref * 1e6, "us/update", LINEAR_GOAL,
                     "FilterPy time / ours for the same predict + update (higher is better)",
                     filters=N, states=n, measurement_dim=m,
-                    reference_impl="filterpy.kalman.KalmanFilter predict+update, one per filter")
+                    reference_impl="filterpy.kalman.KalmanFilter predict+update, one per filter",
+                    dense_floor_us=floor, ratio_ceiling=t_ref * 1e6 / floor)
+
+
+def dense_floor_us(N: int, n: int) -> float:
+    """µs that the dense n × n products of one predict + Joseph update of N filters take at the
+    rate numpy reaches on batched (N, n, n) matmuls here and now: the floor under any
+    implementation that runs at that rate, whatever its overhead.
+
+    Four products per filter: F P Fᵀ (two) and the Joseph form's (I − KH) P̄ (I − KH)ᵀ (two);
+    the gain and K R Kᵀ (of inner width m) are left out, so the floor is a lower bound. The row's
+    ``ratio_ceiling`` = FilterPy's time / this floor is the highest ratio such an implementation
+    could reach."""
+    return 4 * 2.0 * n**3 * N / matmul_rate(N, n) * 1e6
 
 
 def _entry_stack(config: BankConfig, env: Environment) -> EKFStack:
@@ -197,4 +214,4 @@ def insight_stream(count: int, env: Environment) -> tuple[float, np.ndarray, np.
     return run.t_start, np.array(truth.position_km), np.array(truth.velocity_km_s), meas, "sim InSight approach, last 4 days"
 
 
-__all__ = ["bench_linear", "bench_ekf_filterpy", "bench_stacking", "insight_stream"]
+__all__ = ["bench_linear", "bench_ekf_filterpy", "bench_stacking", "dense_floor_us", "insight_stream"]
