@@ -4,6 +4,7 @@ import json
 import math
 
 import jsonschema
+import numpy as np
 import pytest
 
 from fsw.interface import codec, messages, topics
@@ -108,6 +109,26 @@ def test_stamp_from_unix():
     s = messages.Stamp.from_unix(1_543_233_531.999_999_999_9)
     assert 0 <= s.nsec < 1_000_000_000
     assert abs(s.to_unix() - 1_543_233_532.0) < 1e-6
+
+
+def test_stamp_from_unix_is_floor_and_rounded_nanoseconds():
+    """Whole seconds by floor division, nanoseconds rounded half to even with the carry into the
+    seconds, negative times clamped to 0, ints whatever float type comes in (numpy's too)."""
+    rng = np.random.default_rng(7)
+    values = np.concatenate([rng.uniform(0.0, 2e9, 20_000), rng.uniform(1.7e9, 1.8e9, 20_000),
+                             rng.uniform(-5.0, 5.0, 2_000), np.arange(2_000) + 0.9999999999,
+                             np.arange(2_000) + 0.5e-9, [0.0, 1.0, 2.5, 1e-10, -0.0]])
+    for u in values.tolist():
+        sec = int(u // 1)
+        nsec = int(round((u - sec) * 1e9))
+        if nsec >= 1_000_000_000:
+            sec, nsec = sec + 1, nsec - 1_000_000_000
+        for given in (u, np.float64(u)):
+            s = messages.Stamp.from_unix(given)
+            assert (s.sec, s.nsec) == (max(sec, 0), nsec)
+            assert type(s.sec) is int and type(s.nsec) is int
+    carried = messages.Stamp.from_unix(41.9999999999)
+    assert (carried.sec, carried.nsec) == (42, 0)
 
 
 def test_schema_names_and_lookup():
