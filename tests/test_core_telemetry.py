@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from fsw.astro.time import tdb_to_unix
-from fsw.core.telemetry import AnomalyReporter, DeclarationClock, anomaly_message, stamp, weights_message
+from fsw.core.telemetry import AnomalyReporter, DeclarationClock, anomaly_message, budget_message, stamp, weights_message
+from fsw.executive.report import ICD_FIELDS, BudgetReportData
 from fsw.fdir.config import DetectorConfig
 from fsw.fdir.detector import AnomalyDetector, AnomalyState
 from fsw.fdir.families import FilterFamily
@@ -26,6 +27,18 @@ def _state(t, flag, declared=None, cls="none", conf=0.0) -> AnomalyState:
 @pytest.mark.parametrize("t", [0.0, 1234.5678, 7.5e8 + 3599.999, 8.1e8 + 0.25])
 def test_stamp_is_the_utc_of_the_tdb_epoch_to_microseconds(t):
     assert stamp(t).to_unix() == pytest.approx(float(tdb_to_unix(t)), abs=2e-6)
+
+
+@pytest.mark.parametrize("mode", ["cpu", "work-units"])
+def test_budget_message_is_the_report_field_by_field(mode):
+    # every field a different value, so that two fields swapped could not go unnoticed
+    rep = BudgetReportData(frame=3, t_s=7.5e8 + 60.0, mode=mode, used=0.25, budget=2.0, utilisation=0.125,
+                           processed=7, deferred=5, backlog=2, overruns=11, errors=13, lag_s=17.0,
+                           backlog_warning=True)
+    by_name = m.BudgetReport(timestamp=stamp(rep.t_s), **{name: getattr(rep, name) for name in ICD_FIELDS})
+    msg = budget_message(rep)
+    assert msg == by_name
+    assert codec.from_json(m.BudgetReport, codec.to_json(msg)) == by_name
 
 
 def test_weights_message_carries_groups_and_statistic_when_the_network_has_them():

@@ -123,8 +123,11 @@ def bplane_message(est: FilterEstimate, label: str) -> m.BPlane | None:
 
 
 def budget_message(rep: BudgetReportData) -> m.BudgetReport:
-    """One frame of the executive."""
-    return m.BudgetReport(timestamp=stamp(rep.t_s), **rep.icd_fields())
+    """One frame of the executive (the ICD's fields, :data:`fsw.executive.report.ICD_FIELDS`, and the
+    stamp: by position, in the ICD's order, because this runs for almost every frame;
+    tests/test_core_telemetry.py holds it to the message built by name)."""
+    return m.BudgetReport(rep.frame, rep.t_s, stamp(rep.t_s), rep.mode, rep.used, rep.budget, rep.utilisation,
+                          rep.processed, rep.deferred, rep.backlog, rep.overruns, rep.errors)
 
 
 def status_message(t: float, run_id: str, state: RunState, counts: Mapping[str, int],

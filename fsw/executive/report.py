@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from fsw.executive.config import BudgetMode
+
 #: Fields of :class:`BudgetReportData` that map one-to-one onto the ICD ``BudgetReport``.
 ICD_FIELDS: tuple[str, ...] = (
     "frame", "t_s", "mode", "used", "budget", "utilisation",
@@ -25,7 +27,7 @@ class BudgetReportData:
 
     frame: int
     t_s: float
-    mode: str
+    mode: BudgetMode
     used: float
     budget: float
     utilisation: float
