@@ -16,7 +16,7 @@ from typing import Any, NoReturn
 
 from fsw.interface.yamlconfig import ConfigError
 from tools.commands.errors import UsageError
-from tools.commands.help_text import PlainHelpFormatter, version_text
+from tools.commands.help_text import PlainHelpFormatter, VersionAction
 from tools.supervision import watch_supervisor_from_env
 from tools.commands.outputs import write_error_line
 from tools import blas_threads, process_gc
@@ -78,7 +78,7 @@ def build_parser(commands: tuple[str, ...] = COMMANDS) -> argparse.ArgumentParse
         description="Flight-software-in-the-loop simulator for autonomous deep-space navigation "
         "with filter-bank anomaly detection.",
     )
-    parser.add_argument("--version", action="version", version=version_text())
+    parser.add_argument("--version", action=VersionAction)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module_name in commands:
         module = importlib.import_module(module_name)

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import re
-from importlib import metadata
 
 # :func:`~pkg.mod.name` -> name, :class:`pkg.Name` -> pkg.Name (the role's target as written)
 _ROLE = re.compile(r":[a-z]+:`(~?)([^`<]+?)(?:\s*<[^>]*>)?`")
@@ -35,7 +34,25 @@ class PlainHelpFormatter(argparse.RawDescriptionHelpFormatter):
 
 def version_text() -> str:
     """``navbank X.Y.Z``: the installed distribution's version."""
+    # imported here: the metadata machinery costs every process ~15 ms to import, and only
+    # --version reads it
+    from importlib import metadata
+
     try:
         return f"navbank {metadata.version('navbank')}"
     except metadata.PackageNotFoundError:
         return "navbank (not installed: version unknown)"
+
+
+class VersionAction(argparse.Action):
+    """``--version``: prints :func:`version_text` and exits 0, looking the version up only then (the
+    stock action takes the string when the parser is built, in every process a run starts)."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS, help: str = "show the version and exit") -> None:
+        super().__init__(option_strings=option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:
+        print(version_text())
+        parser.exit()
