@@ -74,6 +74,26 @@ def test_malformed_measurements_are_rejected_with_the_typed_error(mutate, where)
 
 
 @pytest.mark.parametrize(
+    "fields,message",
+    [
+        ({"sigma": (1.0, 0.0)}, "sigma components must be > 0"),
+        ({"sigma": (1.0, -2.0)}, "sigma components must be > 0"),
+        ({"sigma": (1.0,)}, "sigma has 1 components"),
+        ({"attitude_q": None}, "needs attitude_q"),
+        ({"kind": "range", "value": (1.0,), "sigma": (-1.0,), "attitude_q": None}, "sigma components must be > 0"),
+        ({"kind": "range", "value": (1.0, 2.0)}, "has 1 component"),
+    ],
+)
+def test_measurement_construction_checks_each_component_and_required_field(fields, message):
+    good = examples()["Measurement"][2]
+    kwargs = {f: getattr(good, f) for f in good.__slots__} | fields
+    with pytest.raises(ValueError, match=message):
+        messages.Measurement(**kwargs)
+    # a NaN sigma is the codec's to refuse (non-finite), not a "non-positive" one here
+    messages.Measurement(**({f: getattr(good, f) for f in good.__slots__} | {"sigma": (1.0, float("nan"))}))
+
+
+@pytest.mark.parametrize(
     "payload",
     [
         b"",

@@ -103,11 +103,13 @@ class Measurement:
         want = None if declared is None else declared.dimension
         if want is not None and len(self.value) != want:
             raise ValueError(f"a {self.kind} measurement has {want} component(s), got {len(self.value)}")
-        if any(s <= 0.0 for s in self.sigma):
-            raise ValueError("sigma components must be > 0")
-        for name in () if declared is None else declared.requires:
-            if getattr(self, name) is None:
-                raise ValueError(f"a measurement of kind {self.kind} needs {name}")
+        for s in self.sigma:  # a loop, not any() over a generator: every measurement passes here
+            if s <= 0.0:
+                raise ValueError("sigma components must be > 0")
+        if declared is not None:
+            for name in declared.requires:
+                if getattr(self, name) is None:
+                    raise ValueError(f"a measurement of kind {self.kind} needs {name}")
 
 
 @dataclass(frozen=True, slots=True)
