@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from fsw.executive.config import BudgetMode
+from fsw.interface.frozen import fast_init
 
 #: Fields of :class:`BudgetReportData` that map one-to-one onto the ICD ``BudgetReport``.
 ICD_FIELDS: tuple[str, ...] = (
@@ -13,6 +14,7 @@ ICD_FIELDS: tuple[str, ...] = (
 )
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class BudgetReportData:
     """Budget telemetry of one frame.

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from fsw.executive.config import PRIORITY_CLASSES, StageKind
+from fsw.interface.frozen import fast_init
 
 #: Rank of each priority class: lower runs first.
 PRIORITY_RANK: dict[str, int] = {kind: rank for rank, kind in enumerate(PRIORITY_CLASSES)}
@@ -79,6 +80,7 @@ class Stage:
                 raise JobError(f"stage {self.label!r}: cost must be finite and >= 0, got {self.cost!r}")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class Job:
     """The ordered stages caused by one measurement (or any other time-tagged event).

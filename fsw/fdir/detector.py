@@ -31,11 +31,13 @@ from fsw.fdir.families import FilterFamily, ordered_families
 from fsw.fdir.persistence import KOfN
 from fsw.fdir.statistic import NominalBand
 from fsw.gating.base import WeightsUpdate
+from fsw.interface.frozen import fast_init
 from fsw.interface.messages import AnomalyClass
 
 SUM_TOLERANCE = 1.0e-6
 
 
+@fast_init
 @dataclass(frozen=True)
 class AnomalyState:
     """The detector's verdict after a batch (the FSW app maps it to the ICD AnomalyReport).

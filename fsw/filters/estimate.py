@@ -7,7 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fsw.interface.frozen import fast_init
 
+
+@fast_init
 @dataclass(frozen=True)
 class StateEstimate:
     """An estimate in its filter's own state layout."""
@@ -24,6 +27,7 @@ class StateEstimate:
         return np.sqrt(np.maximum(self.P.diagonal(), 0.0))
 
 
+@fast_init
 @dataclass(frozen=True)
 class FilterEstimate(StateEstimate):
     """A navigation estimate: the state starts with Mars-centred position [km] and velocity [km/s]."""

@@ -13,7 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fsw.interface.frozen import fast_init
 
+
+@fast_init
 @dataclass(frozen=True, slots=True)
 class BankRecord:
     """Residual statistics of all N filters of a bank for one measurement j.

@@ -31,6 +31,7 @@ import numpy as np
 
 from fsw.filters.record import BankRecord
 from fsw.interface import typed
+from fsw.interface.frozen import fast_init
 
 
 class GatingError(ValueError):
@@ -52,6 +53,7 @@ class InvalidParameterError(GatingError):
     """A parameter value outside its declared type or range, or inconsistent with the bank."""
 
 
+@fast_init
 @dataclass(frozen=True)
 class WeightsUpdate:
     """New weights produced by a gating network.

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal, get_args
 
 from fsw.interface import kinds
+from fsw.interface.frozen import fast_init
 from fsw.interface.typed import spec
 
 SCHEMA_VERSION = 1
@@ -54,6 +55,7 @@ TelecommandName = Literal["reset-gating", "enable-filter", "disable-filter", "se
 TELECOMMANDS: tuple[str, ...] = get_args(TelecommandName)
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class Stamp:
     """Foxglove-style time: seconds and nanoseconds since the Unix epoch (UTC)."""
@@ -78,6 +80,7 @@ class Stamp:
         return self.sec * 1_000_000_000 + self.nsec
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class Measurement:
     """One measurement as the spacecraft receives it (sim → fsw)."""
@@ -112,6 +115,7 @@ class Measurement:
                     raise ValueError(f"a measurement of kind {self.kind} needs {name}")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class Truth:
     """True spacecraft and clock state (sim → ground only; the FSW never subscribes to it)."""
@@ -128,6 +132,7 @@ class Truth:
     active_faults: tuple[str, ...] = spec((), max_items=MAX_COUNTERS, max_length=NAME_CHARS, doc="identifiers of the faults active at t_s")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class FaultEvent:
     """A fault starting or ending (sim → ground), so campaigns can score detection."""
@@ -141,6 +146,7 @@ class FaultEvent:
     magnitude: dict[str, float] = spec(default_factory=dict, max_items=MAX_COUNTERS, max_length=NAME_CHARS, doc="fault parameters with units in their names")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class FilterWeights:
     """Weights of one gating network after one batch (fsw → ground)."""
@@ -161,6 +167,7 @@ class FilterWeights:
             raise ValueError(f"{len(self.filters)} filters but {len(self.statistic)} statistics")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class AnomalyReport:
     """The onboard anomaly flag and diagnosis (fsw → ground)."""
@@ -178,6 +185,7 @@ class AnomalyReport:
     evidence: dict[str, float] = spec(default_factory=dict, max_items=MAX_FILTERS, max_length=NAME_CHARS, doc="filter name -> weight at the decision")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class Estimate:
     """A navigation solution (fsw → ground)."""
@@ -203,6 +211,7 @@ class Estimate:
             raise ValueError(f"covariance must be {n}x{n}")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class ResidualSample:
     """Pre-fit residuals of one measurement in every filter of the bank (Lubey & Ely 2022 eq. 5:
@@ -224,6 +233,7 @@ class ResidualSample:
             raise ValueError("residual, sigma, normalised, nis and processed need one entry per filter")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class Residuals:
     """The pre-fit residuals of the measurements one executive frame took on (fsw → ground): one
@@ -235,6 +245,7 @@ class Residuals:
     samples: tuple[ResidualSample, ...] = spec(max_items=MAX_COUNTERS, doc="one entry per measurement filtered in the frame, in order")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class BPlane:
     """B-plane targeting of one navigation solution (fsw → ground): the incoming hyperbolic
@@ -251,6 +262,7 @@ class BPlane:
     v_inf_km_s: float = spec(doc="hyperbolic excess speed", unit="km/s", ge=0.0)
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class BudgetReport:
     """One frame of the FSW frame executive (fsw → ground)."""
@@ -269,6 +281,7 @@ class BudgetReport:
     errors: int = spec(0, doc="cumulative count of work items that raised", ge=0)
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class AuthTag:
     """Proof that a message comes from a holder of the run's key: HMAC-SHA256 (RFC 2104) over the
@@ -278,6 +291,7 @@ class AuthTag:
     mac: str = spec(max_length=64, doc="HMAC-SHA256 in hex over the schema name, the nonce and the message without this tag")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class RqpReport:
     """One RQP parameter adaptation of the best filter, Chaer et al. 1997 §IV (fsw → ground)."""
@@ -303,6 +317,7 @@ class RqpReport:
             raise ValueError("params, alpha_before and alpha_after must have the same length")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class Telecommand:
     """A command to the FSW (ground → fsw, as a Zenoh query payload)."""
@@ -328,6 +343,7 @@ class Telecommand:
                 raise ValueError(f"'{self.command}' needs '{name}'")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class TelecommandReply:
     """The FSW's answer to a telecommand."""
@@ -339,6 +355,7 @@ class TelecommandReply:
     detail: dict[str, str] = spec(default_factory=dict, max_items=MAX_COUNTERS, max_length=TEXT_CHARS, doc="textual status (filters enabled, networks, ...)")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class CommandRecord:
     """A telecommand as the FSW served it, with its reply (fsw → ground): commands are part of the
@@ -356,6 +373,7 @@ class CommandRecord:
                         "(authentication); it changed nothing. Empty for a command that was served")
 
 
+@fast_init
 @dataclass(frozen=True, slots=True)
 class RunStatus:
     """Lifecycle and counters of a process (start, periodic, end-of-run)."""
