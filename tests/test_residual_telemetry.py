@@ -35,6 +35,24 @@ def test_residual_sample_equals_an_independent_linear_computation():
     assert sample.processed == (True, False, True) and sample.source == "phobos" and sample.seq == 4
 
 
+def test_scalar_residual_sample_is_each_field_computed_by_name():
+    # the scalar path (range, Doppler) builds the message by position: every field here differs
+    # from the others, so two swapped fields, or a wrong element, fail
+    z = np.array([[2.5e-4], [-3.0e-4], [0.0]])
+    S = np.array([[[4.0e-8]], [[0.0]], [[9.0e-8]]])
+    chi2 = np.array([1.5625, 0.0, 0.0])
+    rec = BankRecord(t=96.5, seq=11, kind="doppler", filters=("a", "b", "c"), residual=z, S=S, chi2=chi2,
+                     processed=np.array([True, False, True]))
+    sample = residual_sample(rec, "DSS-43")
+    sigma = (np.sqrt(4.0e-8), 0.0, np.sqrt(9.0e-8))
+    assert sample == m.ResidualSample(
+        t_s=96.5, seq=11, kind="doppler", source="DSS-43", residual=((2.5e-4,), (-3.0e-4,), (0.0,)),
+        sigma=tuple((s,) for s in sigma), normalised=((2.5e-4 / sigma[0],), (0.0,), (0.0,)),
+        nis=(1.5625, 0.0, 0.0), processed=(True, False, True))
+    assert all(type(v) is float for row in sample.residual + sample.sigma + sample.normalised for v in row)
+    assert all(type(v) is float for v in sample.nis) and all(type(v) is bool for v in sample.processed)
+
+
 def test_residuals_and_bplane_round_trip_through_the_icd():
     sample = m.ResidualSample(t_s=1.0, seq=0, kind="range", source="DSS-14", residual=((0.1,), (0.2,)),
                               sigma=((1.0,), (2.0,)), normalised=((0.1,), (0.1,)), nis=(0.01, 0.01),

@@ -81,17 +81,17 @@ def residual_sample(rec: BankRecord, source: str) -> m.ResidualSample:
     quotients are correctly rounded, so the same as numpy's)."""
     residual = np.asarray(rec.residual, dtype=float)
     n_f, n = residual.shape
-    z = residual.tolist()
     if n == 1:
-        # scalar kinds (range, Doppler: most measurements): S is its own diagonal
+        # scalar kinds (range, Doppler: most measurements): S is its own diagonal. The fields go
+        # by position, in the ICD's order (one sample per measurement)
+        z1 = residual.ravel().tolist()
         sig1 = [math.sqrt(max(v, 0.0)) for v in np.asarray(rec.S, dtype=float).ravel().tolist()]
         return m.ResidualSample(
-            t_s=float(rec.t), seq=int(rec.seq), kind=rec.kind, source=source, residual=tuple(map(tuple, z)),
-            sigma=tuple([(s,) for s in sig1]),
-            normalised=tuple([(a / s if s > 0.0 else 0.0,) for (a,), s in zip(z, sig1)]),
-            nis=tuple(np.asarray(rec.chi2, dtype=float).tolist()),
-            processed=tuple(np.asarray(rec.processed, dtype=bool).tolist()),
+            float(rec.t), int(rec.seq), rec.kind, source, tuple([(a,) for a in z1]), tuple([(s,) for s in sig1]),
+            tuple([(a / s if s > 0.0 else 0.0,) for a, s in zip(z1, sig1)]),
+            tuple(np.asarray(rec.chi2, dtype=float).tolist()), tuple(np.asarray(rec.processed, dtype=bool).tolist()),
         )
+    z = residual.tolist()
     variances = np.asarray(rec.S, dtype=float).reshape(n_f, n * n)[:, ::n + 1].tolist()  # diag S per filter
     sigma = [[math.sqrt(max(v, 0.0)) for v in row] for row in variances]
     norm = [tuple([a / s if s > 0.0 else 0.0 for a, s in zip(z_i, s_i)]) for z_i, s_i in zip(z, sigma)]
