@@ -68,8 +68,8 @@ def _stamps(t_tdb: np.ndarray) -> list[Stamp]:
     nsec = np.rint((unix - sec) * 1e9)
     carry = nsec >= 1e9
     sec, nsec = np.where(carry, sec + 1.0, sec), np.where(carry, nsec - 1e9, nsec)
-    return [Stamp(sec=s, nsec=n) for s, n in zip(np.maximum(sec, 0.0).astype(np.int64).tolist(),
-                                                  nsec.astype(np.int64).tolist())]
+    return [Stamp(s, n) for s, n in zip(np.maximum(sec, 0.0).astype(np.int64).tolist(),
+                                        nsec.astype(np.int64).tolist())]
 
 
 @dataclass
@@ -239,18 +239,15 @@ def _generate(cfg: SimConfig, faults: tuple[FaultConfig, ...] | None, seed: int)
     o_q = np.asarray(optical.attitude_q, dtype=float).reshape(-1, 4).tolist()
     is_radio = (origin[order] == "radio").tolist()
     for seq, (i, tag, radio_row) in enumerate(zip(index[order].tolist(), tags.tolist(), is_radio)):
+        # by position (seq, t_s, timestamp, kind, source, value, sigma, attitude_q, count_time_s):
+        # a measurement each
         if radio_row:
             kind = r_kind[i]
-            measurements.append(Measurement(
-                seq=seq, t_s=tag, timestamp=stamps[seq], kind=kind, source=r_station[i],
-                value=(r_value[i],), sigma=(r_sigma[i],),
-                count_time_s=count_s if kind == "doppler" else None,
-            ))
+            measurements.append(Measurement(seq, tag, stamps[seq], kind, r_station[i], (r_value[i],), (r_sigma[i],),
+                                            None, count_s if kind == "doppler" else None))
         else:
-            measurements.append(Measurement(
-                seq=seq, t_s=tag, timestamp=stamps[seq], kind="optical", source=o_target[i],
-                value=tuple(o_value[i]), sigma=tuple(o_sigma[i]), attitude_q=tuple(o_q[i]),
-            ))
+            measurements.append(Measurement(seq, tag, stamps[seq], "optical", o_target[i], tuple(o_value[i]),
+                                            tuple(o_sigma[i]), tuple(o_q[i])))
 
     if cfg.truth_interval_s > 0.0:
         n = int(math.floor((t_end - t_start) / cfg.truth_interval_s + 1e-9)) + 1

@@ -51,6 +51,9 @@ def test_weights_message_carries_groups_and_statistic_when_the_network_has_them(
                         group_weights=np.array([0.75, 0.25]))
     msg = weights_message(two)
     assert msg.statistic == (1.0, 2.0, 3.0) and msg.groups == {"a": 0.75, "b": 0.25}
+    # built by position: the whole message, field by field, against the one built by name
+    assert msg == m.FilterWeights(t_s=11.0, timestamp=stamp(11.0), network="hierarchical", batch=1, filters=FILTERS,
+                                  weights=(0.5, 0.25, 0.25), groups={"a": 0.75, "b": 0.25}, statistic=(1.0, 2.0, 3.0))
     assert codec.from_json(m.FilterWeights, codec.to_json(msg)) == msg  # a valid ICD message
 
 

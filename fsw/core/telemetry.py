@@ -54,11 +54,10 @@ def weights_message(upd: WeightsUpdate) -> m.FilterWeights:
     """A gating network's new weights; ``statistic`` is the per-filter quantity behind them
     (e.g. the batch chi-square G_k,i of Lubey & Ely 2022 eq. 6), empty if the network has none."""
     stat = () if upd.statistic is None else tuple(np.asarray(upd.statistic, dtype=float).tolist())
-    return m.FilterWeights(
-        t_s=float(upd.t), timestamp=stamp(upd.t), network=upd.network, batch=int(upd.batch),
-        filters=tuple(upd.filters), weights=tuple(np.asarray(upd.weights, dtype=float).tolist()),
-        groups=upd.groups(), statistic=stat,
-    )
+    t = float(upd.t)
+    # by position, in the ICD's order: a per-measurement network sends one for every measurement
+    return m.FilterWeights(t, stamp(t), upd.network, int(upd.batch), tuple(upd.filters),
+                           tuple(np.asarray(upd.weights, dtype=float).tolist()), upd.groups(), stat)
 
 
 def estimate_message(est: FilterEstimate, label: str, full_covariance: bool) -> m.Estimate:

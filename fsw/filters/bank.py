@@ -237,8 +237,9 @@ class FilterBank:
         else:
             residual, S, chi2, processed = done
         self.processed_count += 1
-        return BankRecord(t=float(meas.t_s), seq=int(meas.seq), kind=str(kind), filters=self.names,
-                          residual=residual, S=S, chi2=chi2, processed=processed.copy(), active=self.active.copy())
+        # by position (BankRecord's field order), one record per measurement
+        return BankRecord(float(meas.t_s), int(meas.seq), str(kind), self.names, residual, S, chi2, processed.copy(),
+                          self.active.copy())
 
     def _steps(self, meas: Measurement, model: KindModel, t1: float, value: np.ndarray, sigma: np.ndarray,
                does: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

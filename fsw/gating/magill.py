@@ -226,7 +226,9 @@ class MagillNetwork(GatingNetwork):
             weights = self._weights()
         else:
             self._logp = logp
-        update = self._make_update(record, self._count, weights, statistic=loglik)
+        # every branch leaves ``weights`` a new array of this update's own (what _make_update
+        # copies to): passed as it is, by position (one update per measurement)
+        update = WeightsUpdate(self.name, float(record.t), int(record.seq), self._count, self.filters, weights, loglik)
         self._count += 1
         return update
 
