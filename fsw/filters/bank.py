@@ -271,6 +271,21 @@ class FilterBank:
         self.stack.propagate_to(t)
 
     # -- outputs -------------------------------------------------------------------------------
+    def _combined_selection(self, used: np.ndarray) -> tuple[tuple[str, ...], np.ndarray, np.ndarray]:
+        """The combined estimate's state names, and the indices of the filters it combines (``used``)
+        and of the states they all estimate; kept per ``used`` (the filters present in a state never
+        change, and the set of filters with weight rarely does)."""
+        cache: dict[bytes, tuple[tuple[str, ...], np.ndarray, np.ndarray]] = self.__dict__.setdefault("_selections", {})
+        key = used.tobytes()
+        hit = cache.get(key)
+        if hit is None:
+            common = np.all(self.stack.present[used], axis=0)
+            if len(cache) >= 64:  # a bank of N filters has 2^N subsets: keep the recent ones
+                cache.clear()
+            hit = cache[key] = (tuple(n for n, k in zip(self.state_names, common) if k), np.flatnonzero(used),
+                                np.flatnonzero(common))
+        return hit
+
     def estimates(self, weights: ArrayLike | None = None) -> dict[str, FilterEstimate]:
         """Every filter's estimate; with gating ``weights`` also 'combined' (weighted sum over
         the states all contributing filters estimate, mixture covariance) and 'best'."""
@@ -278,12 +293,11 @@ class FilterBank:
         if weights is None:
             return out
         w = normalised_weights(np.asarray(weights, dtype=float), self.active)
-        used = w > 0.0
-        common = np.all(self.stack.present[used], axis=0)
-        names = tuple(n for n, k in zip(self.state_names, common) if k)
-        x = self.stack.x[:, common]
-        P = self.stack.P[:, common][:, :, common]
-        x_opt, P_opt = weighted_estimate(x[used], P[used], w[used])
+        names, rows, cols = self._combined_selection(w > 0.0)
+        # one gather each of the contributing filters' common states (the values a boolean
+        # selection of filters, then of states, copies out)
+        x_opt, P_opt = weighted_estimate(self.stack.x[rows[:, None], cols], self.stack.P[rows[:, None, None], cols[:, None], cols],
+                                         w[rows])
         out["combined"] = FilterEstimate("combined", self.t, names, x_opt, P_opt)
         out["best"] = out[self.names[best_index(w, self.active)]]
         return out

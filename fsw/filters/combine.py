@@ -8,13 +8,17 @@ The alternative of Lubey & Ely 2022 §2 is to take the estimate of the filter wi
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
 def normalised_weights(weights: np.ndarray, active: np.ndarray) -> np.ndarray:
     """Weights with disabled filters zeroed and the rest renormalised to sum to one."""
     w = np.where(active, np.asarray(weights, dtype=float), 0.0)
-    if np.any(w < 0.0) or not np.all(np.isfinite(w)):
+    # a few numbers: checked as Python floats (NaN fails isfinite whatever min makes of it)
+    values = w.tolist()
+    if not all(map(math.isfinite, values)) or (values and min(values) < 0.0):
         raise ValueError("weights must be finite and non-negative")
     total = w.sum()
     if total <= 0.0:
