@@ -191,10 +191,6 @@ def reenter_probabilities(p: np.ndarray, old_mask: np.ndarray, new_mask: np.ndar
     return out
 
 
-def _finite(values: np.ndarray) -> bool:
-    return all(map(math.isfinite, values.ravel().tolist()))
-
-
 def check_record(record: BankRecord, filters: tuple[str, ...]) -> np.ndarray:
     """Validate a bank record for networks over ``filters``; return its active mask (N,) bool.
 
@@ -219,13 +215,15 @@ def check_record(record: BankRecord, filters: tuple[str, ...]) -> np.ndarray:
     processed = np.asarray(record.processed)
     if chi2.shape != (n_f,) or processed.shape != (n_f,):
         raise GatingInputError(f"chi2 and processed must have shape ({n_f},)")
+    chi2_values = chi2.tolist()
     try:
-        finite = _finite(res) and _finite(S) and _finite(chi2)
+        # one pass over the record's few numbers
+        finite = all(map(math.isfinite, res.ravel().tolist() + S.ravel().tolist() + chi2_values))
     except TypeError:  # not numbers at all
         finite = False
     if not finite:
         raise GatingInputError(f"non-finite residual, S or chi2 in record seq={record.seq}")
-    if min(chi2.tolist()) < 0.0:
+    if min(chi2_values) < 0.0:
         raise GatingInputError(f"negative chi-square in record seq={record.seq}")
     if not math.isfinite(record.t):
         raise GatingInputError("non-finite time tag")
