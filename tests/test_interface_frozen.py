@@ -82,7 +82,8 @@ def test_every_icd_message_and_every_per_measurement_record_is_decorated():
     icd = {cls for cls in vars(m).values()
            if isinstance(cls, type) and dataclasses.is_dataclass(cls) and cls.__module__ == m.__name__}
     assert icd <= set(DECORATED)
-    assert {BankRecord, Job, BudgetReportData, WeightsUpdate, AnomalyState, StateEstimate, FilterEstimate} <= set(DECORATED)
+    records = {BankRecord, Job, BudgetReportData, WeightsUpdate, AnomalyState, StateEstimate, FilterEstimate}
+    assert records <= set(DECORATED)
     assert {type(obj) for obj in _instances()} == set(DECORATED)  # the cases below cover every one
 
 
@@ -190,3 +191,24 @@ def test_subclass_fields_and_slots_are_served():
     assert (d.a, d.b, d.c) == (1, [2], "x")
     assert Derived(1) == Derived(1, [], "c")
     assert Derived.__init__.__qualname__.endswith("Derived.__init__")
+
+
+def test_fields_named_like_the_generated_code_s_own_names():
+    @fast_init
+    @dataclass(frozen=True)
+    class Named:  # no slots: stored in the instance dictionary
+        self: int
+        d: int
+        _MISSING: int = 3
+        _default0: list = field(default_factory=list)
+
+    @fast_init
+    @dataclass(frozen=True, slots=True)
+    class Slotted:
+        self: int
+        _set0: int = 5
+
+    a = Named(1, 2)
+    assert (a.self, a.d, a._MISSING, a._default0) == (1, 2, 3, [])
+    assert Named(self=1, d=2, _MISSING=4, _default0=[5]) == Named(1, 2, 4, [5])
+    assert (Slotted(7).self, Slotted(7)._set0, Slotted(self=7, _set0=8)._set0) == (7, 5, 8)

@@ -296,8 +296,8 @@ class FilterBank:
         names, rows, cols = self._combined_selection(w > 0.0)
         # one gather each of the contributing filters' common states (the values a boolean
         # selection of filters, then of states, copies out)
-        x_opt, P_opt = weighted_estimate(self.stack.x[rows[:, None], cols], self.stack.P[rows[:, None, None], cols[:, None], cols],
-                                         w[rows])
+        st = self.stack
+        x_opt, P_opt = weighted_estimate(st.x[rows[:, None], cols], st.P[rows[:, None, None], cols[:, None], cols], w[rows])
         out["combined"] = FilterEstimate("combined", self.t, names, x_opt, P_opt)
         out["best"] = out[self.names[best_index(w, self.active)]]
         return out

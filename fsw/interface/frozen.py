@@ -40,28 +40,29 @@ def fast_init(cls: T) -> T:
         if not f.init or f.kw_only:
             raise TypeError(f"fast_init: {cls.__name__}.{f.name} is not a positional __init__ field")
     slotted = "__slots__" in cls.__dict__
-    names: dict[str, Any] = {"_MISSING": dataclasses.MISSING}
+    # the function's own names start with two underscores: no field can (a class body mangles them)
+    names: dict[str, Any] = {"__MISSING": dataclasses.MISSING}
     params: list[str] = []
-    body: list[str] = [] if slotted else ["    d = self.__dict__"]
+    body: list[str] = [] if slotted else ["    __d = __self.__dict__"]
     for k, f in enumerate(fields):
         value = f.name
         if f.default is not dataclasses.MISSING:
-            names[f"_default{k}"] = f.default
-            params.append(f"{f.name}=_default{k}")
+            names[f"__default{k}"] = f.default
+            params.append(f"{f.name}=__default{k}")
         elif f.default_factory is not dataclasses.MISSING:
-            names[f"_factory{k}"] = f.default_factory
-            params.append(f"{f.name}=_MISSING")
-            value = f"_factory{k}() if {f.name} is _MISSING else {f.name}"
+            names[f"__factory{k}"] = f.default_factory
+            params.append(f"{f.name}=__MISSING")
+            value = f"__factory{k}() if {f.name} is __MISSING else {f.name}"
         else:
             params.append(f.name)
         if slotted:
-            names[f"_set{k}"] = _slot(cls, f.name).__set__
-            body.append(f"    _set{k}(self, {value})")
+            names[f"__set{k}"] = _slot(cls, f.name).__set__
+            body.append(f"    __set{k}(__self, {value})")
         else:
-            body.append(f"    d[{f.name!r}] = {value}")
+            body.append(f"    __d[{f.name!r}] = {value}")
     if hasattr(cls, "__post_init__"):
-        body.append("    self.__post_init__()")
-    source = f"def __init__(self, {', '.join(params)}):\n" + "\n".join(body or ["    pass"]) + "\n"
+        body.append("    __self.__post_init__()")
+    source = f"def __init__(__self, {', '.join(params)}):\n" + "\n".join(body or ["    pass"]) + "\n"
     exec(source, names)  # noqa: S102 - the source is built above from the class's field names
     init = names["__init__"]
     init.__qualname__ = f"{cls.__qualname__}.__init__"
