@@ -68,6 +68,8 @@ class FilterBank:
         # each filter's columns of the union state (fixed: a state cannot be added at run time)
         self._layouts = [(tuple(self.state_names[c] for c in cols.tolist()), cols, bool(keep.all()))
                          for keep, cols in ((k, np.flatnonzero(k)) for k in self.stack.present)]
+        #: the combined estimate's selection per set of weighted filters (:meth:`_combined_selection`)
+        self._selections: dict[bytes, tuple[tuple[str, ...], np.ndarray, np.ndarray]] = {}
 
     # -- introspection -------------------------------------------------------------------------
     @property
@@ -275,7 +277,7 @@ class FilterBank:
         """The combined estimate's state names, and the indices of the filters it combines (``used``)
         and of the states they all estimate; kept per ``used`` (the filters present in a state never
         change, and the set of filters with weight rarely does)."""
-        cache: dict[bytes, tuple[tuple[str, ...], np.ndarray, np.ndarray]] = self.__dict__.setdefault("_selections", {})
+        cache = self._selections
         key = used.tobytes()
         hit = cache.get(key)
         if hit is None:
