@@ -61,6 +61,24 @@ def test_weight_difference_is_the_largest_element_difference():
     assert td.identical(0.25) and not td.identical(0.1)
 
 
+def test_fields_are_compared_in_the_message_s_order_whatever_the_hash_seed():
+    """Fields of equal difference: the report names the first in the recorded message's order, in
+    every process (a set of field paths would order them by the string hash seed)."""
+    import subprocess
+    import sys
+
+    code = ("from ground.replay.compare import compare_messages\n"
+            "rec = [{'t_s': 1.0, 'position_km': [1.0, 2.0, 3.0], 'state': [1.0, 2.0, 3.0, 4.0]}]\n"
+            "new = [{'t_s': 1.0, 'position_km': [1.5, 2.0, 3.0], 'state': [1.5, 2.0, 3.0, 4.0]}]\n"
+            "more = [{**new[0], 'extra': 1}]\n"
+            "print(compare_messages('/fsw/estimate/radio', rec, new).worst_field(),\n"
+            "      list(compare_messages('/fsw/estimate/radio', rec, more).fields))")
+    seen = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                           env={**__import__("os").environ, "PYTHONHASHSEED": str(seed)}).stdout.strip()
+            for seed in range(6)}
+    assert seen == {"position_km ['t_s', 'position_km', 'state', 'extra']"}
+
+
 def test_relative_tolerance_is_counted_leaf_by_leaf():
     rec = [_weights((1e-3, 1.0 - 1e-3)), _weights((0.5, 0.5), t=6e8 + 1)]
     new = [_weights((1e-3 * (1 + 4e-10), 1.0 - 1e-3)), _weights((0.5, 0.5 * (1 - 2e-9)), t=6e8 + 1)]

@@ -175,7 +175,10 @@ def compare_messages(topic: str, recorded: list[Any], rerun: list[Any], *, compa
         da = flatten(_without_tag(topic, ra if isinstance(ra, dict) else codec.to_dict(ra)))
         db = flatten(_without_tag(topic, rb if isinstance(rb, dict) else codec.to_dict(rb)))
         t_s = da.get("t_s") if _is_number(da.get("t_s")) else None
-        for path in da.keys() | db.keys():
+        # the recorded message's field order, then what only the re-run has: a set's order would
+        # change with the string hash seed from one process to the next, and with it which of two
+        # fields of equal difference a report names as the worst
+        for path in [*da, *(p for p in db if p not in da)]:
             name = _INDEX.sub("", path)
             if path not in da or path not in db:
                 if counters is not None and name.startswith(counters):
