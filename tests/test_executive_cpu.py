@@ -124,3 +124,90 @@ def test_a_cold_first_run_does_not_starve_the_stage_afterwards():
     assert first.processed == 1 and first.overruns == 1  # the cold run overran its frame
     second = ex.run_frame(120.0)
     assert second.processed >= 5  # afterwards several typical runs share a frame again
+
+
+def test_the_meter_follows_the_running_mean_and_deviation_rule_label_by_label():
+    """CpuMeter against the rule of its docstring written out here: per label, the first charge
+    seeds nothing; the second sets mean = cost and deviation = cost / 2; each later one moves
+    both by the gain (mean toward the cost, deviation toward |cost − mean|); the prediction is
+    mean + margin × deviation, 0 while there is no mean; a stage fits while the budget left is
+    positive and not below it. Random labels, costs and budgets, compared exactly."""
+    import copy
+    import pickle
+    import random
+
+    from fsw.executive.meter import CpuMeter
+
+    rng = random.Random(5)
+    cfg = BudgetConfig(mode="cpu", cpu_scale=3.0, cost_gain=0.3, cost_margin=2.5)
+    meter = CpuMeter(cfg)
+    seen: dict[str, int] = {}
+    mean: dict[str, float] = {}
+    dev: dict[str, float] = {}
+    labels = ("ingest", "bank", "gating", "telemetry", "rqp")
+    stages = {lab: Stage("primary", lambda: None, name=lab) for lab in labels}
+
+    def predicted(lab):
+        return mean[lab] + cfg.cost_margin * dev[lab] if lab in mean else 0.0
+
+    for step in range(3000):
+        lab = rng.choice(labels)
+        stage = stages[lab]
+        remaining = rng.choice((-1.0, 0.0, rng.uniform(0.0, 0.02), 1.0))
+        assert meter.predict(stage) == predicted(lab)
+        assert meter.fits(stage, remaining) == (remaining > 0.0 and predicted(lab) <= remaining)
+        assert meter.admits(meter.predict(stage), remaining) == meter.fits(stage, remaining)
+        measured = rng.choice((0.0, rng.uniform(0.0, 0.003), rng.uniform(0.0, 0.05)))
+        cost = measured * cfg.cpu_scale
+        assert meter.charge(stage, measured) == cost
+        n = seen.get(lab, 0)
+        seen[lab] = n + 1
+        if n == 0:
+            pass
+        elif lab not in mean:
+            mean[lab], dev[lab] = cost, 0.5 * cost
+        else:
+            err = cost - mean[lab]
+            mean[lab] += cfg.cost_gain * err
+            dev[lab] += cfg.cost_gain * (abs(err) - dev[lab])
+        if step == 1500:  # a copy or a checkpoint carries the estimates on exactly
+            meter = pickle.loads(pickle.dumps(copy.deepcopy(meter)))
+    assert meter.estimates() == {lab: (mean[lab], dev[lab]) for lab in mean}
+    assert list(meter.estimates()) == list(mean)  # in the order the labels got an estimate
+
+
+class Burn:
+    """A stage that burns ``seconds`` of a FakeClock (picklable, unlike FakeClock.burn's)."""
+
+    def __init__(self, clock, seconds):
+        self.clock, self.seconds = clock, seconds
+
+    def __call__(self):
+        self.clock.now += self.seconds
+
+
+def test_the_executive_keeps_no_instance_dictionary_to_be_converted_by_a_copy():
+    """The executive, its queue and its meters are slotted (see FrameExecutive): a copy or a
+    checkpoint reads their slots, and the copy runs on as the original does."""
+    import copy
+    import pickle
+
+    from fsw.executive.meter import WorkUnitMeter
+
+    clock = FakeClock()
+    ex = FrameExecutive(BudgetConfig(mode="cpu", cpu_budget_s=0.010, cpu_scale=1.0), clock=clock)
+    for k in range(6):
+        ex.submit(Job(t=1.0 * k, stages=(Stage("primary", Burn(clock, 0.004)), Stage("gating", Burn(clock, 0.001)))))
+    ex.run_frame()
+    ex.run_frame()
+    for obj in (ex, ex._queue, ex._meter, WorkUnitMeter(BudgetConfig())):
+        assert not hasattr(obj, "__dict__"), type(obj).__name__
+    twins = (copy.deepcopy(ex), pickle.loads(pickle.dumps(ex)))
+    pending = ex.pending_jobs
+    want = ex.drain().reports
+    assert len(want) >= 2 and ex.pending_jobs == 0
+    for twin in twins:
+        assert twin._lock is not ex._lock
+        assert twin.pending_jobs == pending > 0
+        assert twin.drain().reports == want
+        assert twin.stats == ex.stats and twin.cost_estimates() == ex.cost_estimates()

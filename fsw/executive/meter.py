@@ -17,6 +17,8 @@ from fsw.executive.work import Stage
 class WorkUnitMeter:
     """Declared costs: a stage costs what it says (or its class default), whatever the host does."""
 
+    __slots__ = ("_config",)  # see FrameExecutive's
+
     def __init__(self, config: BudgetConfig):
         self._config = config
 
@@ -35,6 +37,19 @@ class WorkUnitMeter:
         return self.predict(stage)
 
 
+class _LabelCost:
+    """The running estimate of one stage label's charged cost."""
+
+    __slots__ = ("seen", "mean", "dev", "predicted")
+
+    def __init__(self) -> None:
+        self.seen = 0
+        self.mean: float | None = None  # None until a sample past the cold start seeds it
+        self.dev = 0.0
+        #: mean + margin × dev, made when they change (asked before every stage, changed after one)
+        self.predicted = 0.0
+
+
 class CpuMeter:
     """Measured costs: thread CPU seconds times ``cpu_scale``.
 
@@ -46,24 +61,26 @@ class CpuMeter:
     carries one-time costs (caches filled, tables built — 10-20× a typical run for the filter
     bank), and seeding the estimate with it kept the stage out of frames it fits in for hours of
     simulated time while the estimate decayed.
+
+    The meter is asked before and charged after every stage the executive runs, so each label's
+    estimate is one record found by one dictionary look-up, holding its prediction ready.
     """
 
     COLD_START_SAMPLES = 1
+
+    __slots__ = ("_scale", "_gain", "_margin", "_costs", "_estimated")  # see FrameExecutive's
 
     def __init__(self, config: BudgetConfig):
         self._scale = config.cpu_scale
         self._gain = config.cost_gain
         self._margin = config.cost_margin
-        self._mean: dict[str, float] = {}
-        self._dev: dict[str, float] = {}
-        self._seen: dict[str, int] = {}
+        self._costs: dict[str, _LabelCost] = {}
+        #: the labels with an estimate, in the order they got it (what :meth:`estimates` lists)
+        self._estimated: dict[str, _LabelCost] = {}
 
     def predict(self, stage: Stage) -> float:
-        key = stage.label
-        mean = self._mean.get(key)
-        if mean is None:
-            return 0.0
-        return mean + self._margin * self._dev[key]
+        rec = self._costs.get(stage.label)
+        return 0.0 if rec is None else rec.predicted
 
     def admits(self, predicted: float, remaining: float) -> bool:
         return remaining > 0.0 and predicted <= remaining
@@ -72,32 +89,36 @@ class CpuMeter:
         """``admits(predict(stage), remaining)`` in one call (asked before every stage)."""
         if remaining <= 0.0:
             return False
-        mean = self._mean.get(stage.label)
-        return (0.0 if mean is None else mean + self._margin * self._dev[stage.label]) <= remaining
+        rec = self._costs.get(stage.label)
+        return rec is None or rec.predicted <= remaining
 
     def charge(self, stage: Stage, measured_s: float) -> float:
         cost = measured_s * self._scale
-        key = stage.label
-        seen = self._seen.get(key, 0)
-        self._seen[key] = seen + 1
+        rec = self._costs.get(stage.label)
+        if rec is None:
+            rec = self._costs[stage.label] = _LabelCost()
+        seen = rec.seen
+        rec.seen = seen + 1
         if seen < self.COLD_START_SAMPLES:
             return cost
-        mean = self._mean.get(key)
+        mean = rec.mean
         if mean is None:
             # Half the first sample as initial deviation: cautious until the cost is known.
-            self._mean[key] = cost
-            self._dev[key] = 0.5 * cost
+            rec.mean = mean = cost
+            rec.dev = dev = 0.5 * cost
+            self._estimated[stage.label] = rec
         else:
             gain = self._gain
             err = cost - mean
-            self._mean[key] = mean + gain * err
-            dev = self._dev[key]
-            self._dev[key] = dev + gain * (abs(err) - dev)
+            rec.mean = mean = mean + gain * err
+            dev = rec.dev
+            rec.dev = dev = dev + gain * (abs(err) - dev)
+        rec.predicted = mean + self._margin * dev
         return cost
 
     def estimates(self) -> dict[str, tuple[float, float]]:
         """(mean, mean absolute deviation) of the charged cost per stage label."""
-        return {key: (self._mean[key], self._dev[key]) for key in self._mean}
+        return {key: (rec.mean, rec.dev) for key, rec in self._estimated.items()}  # type: ignore[misc]
 
 
 def measured_interval(start: float, end: float) -> float:

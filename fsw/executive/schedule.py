@@ -50,6 +50,8 @@ class JobState:
 class StageQueue:
     """Outstanding stages of the due jobs, and the policy that picks the next one."""
 
+    __slots__ = ("_policy", "_lanes", "_jobs", "pending_stages", "pending_jobs")  # see FrameExecutive's
+
     def __init__(self, policy: str):
         if policy not in ("priority", "fifo"):
             raise ValueError(f"unknown scheduling policy {policy!r}")
