@@ -107,6 +107,10 @@ class LostRanges:
 class SequenceGuard:
     """Check and release measurements in sequence order (see the module docstring)."""
 
+    # slotted: see fsw.executive.FrameExecutive
+    __slots__ = ("window", "next_seq", "t_start", "max_ahead_s", "max_sequence_jump", "counters", "_pending",
+                 "_pending_seqs", "_last_t", "_lost")
+
     def __init__(self, window: int = 32, first_seq: int = 0, *, t_start: float = -math.inf,
                  max_ahead_s: float = math.inf, max_sequence_jump: int | None = None):
         self.window = int(window)

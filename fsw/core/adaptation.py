@@ -68,6 +68,10 @@ class Adapted:
 class OnboardRqp:
     """The adaptation's state in the FSW core: window, snapshot, search in progress."""
 
+    # slotted: see fsw.executive.FrameExecutive
+    __slots__ = ("config", "_work_units", "_cpu_scale", "enabled", "every", "window", "_snapshot", "_search",
+                 "_target", "_target_window", "_base", "_eval", "_cost", "adaptations", "cost_total", "_params")
+
     def __init__(self, config: RqpConfig, budget: BudgetConfig):
         self.config = config
         # what a slice is charged, as the executive charges it: declared work units, or measured

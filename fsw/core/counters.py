@@ -20,7 +20,7 @@ from fsw.ingest import SequenceGuard
 ExtraCounters = Callable[[], dict[str, int]]
 
 
-@dataclass
+@dataclass(slots=True)  # slotted: see fsw.executive.FrameExecutive
 class CoreCounters:
     decode_errors: int = 0
     bank_rejected: Counter[str] = field(default_factory=Counter)

@@ -60,14 +60,21 @@ BANK_STAGE = "bank"
 class FswCore:
     """Bank + gating + detector + executive; emits ICD telemetry through ``emit(topic, msg)``."""
 
-    #: Ground observers of every bank record the core makes (post-processing re-runs, e.g. EM
-    #: tuning); never set onboard. A start-up warm-up copy has none: what it flies is thrown away.
-    record_taps: tuple[Callable[[BankRecord], None], ...] = ()
+    # Slotted, as the objects it runs per measurement are (see fsw.executive.FrameExecutive): the
+    # warm-up copies the core and a checkpoint pickles it while it flies.
+    __slots__ = ("config", "run_id", "_sink", "record_taps", "bank", "filters", "networks", "latest",
+                 "_weights_topics", "reporter", "guard", "counters", "taken", "executive", "_stages",
+                 "_warm_kinds", "t0", "_next_estimate", "_next_anomaly", "_next_status", "_residuals",
+                 "_next_residuals", "_next_bplane", "_last_t", "_end", "extra_counters", "_last_overruns",
+                 "_next_idle_report", "frames_reported", "max_utilisation", "rqp")
 
     def __init__(self, config: FswConfig, emit: Emit, *, run_id: str = "run",
                  clock: Callable[[], float] = time.thread_time):
         if config.initial_state is None:
             raise ValueError("the FSW needs an a-priori initial state (fsw.initial_state)")
+        #: Ground observers of every bank record the core makes (post-processing re-runs, e.g. EM
+        #: tuning); never set onboard. A start-up warm-up copy has none: what it flies is thrown away.
+        self.record_taps: tuple[Callable[[BankRecord], None], ...] = ()
         kernels.load_all()  # the models' kernels, compiled or loaded now, not in the first frames
         self.config = config
         self.run_id = run_id
@@ -126,14 +133,19 @@ class FswCore:
 
     # -- checkpoints (fsw.core.checkpoint) ------------------------------------------------------
     def __getstate__(self) -> dict[str, object]:
-        """Everything but what belongs to the process around the core: where it emits and the
-        driver's counters (a resumed process attaches its own)."""
-        state = dict(self.__dict__)
+        """Everything but what belongs to the process around the core: where it emits, the
+        driver's counters (a resumed process attaches its own) and the ground's record taps."""
+        state: dict[str, object] = {name: getattr(self, name) for name in self.__slots__ if name != "record_taps"}
         state["_sink"] = None
         state["extra_counters"] = None
         if self._warm_kinds is not None:
             state["_warm_kinds"] = set()  # a resumed process starts cold: it warms up again
         return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.record_taps = ()
+        for name, value in state.items():
+            setattr(self, name, value)
 
     def attach(self, emit: Emit) -> None:
         """Emit through ``emit`` from now on (a core restored from a checkpoint)."""

@@ -46,6 +46,10 @@ _EYES = {m: np.eye(m) for m in range(1, 7)}
 class FilterBank:
     """A bank of extended Kalman filters (see the module docstring)."""
 
+    # slotted: see fsw.executive.FrameExecutive
+    __slots__ = ("config", "stack", "names", "active", "rejected", "processed_count", "_process_masks",
+                 "_sigma_scale", "_gate", "_gate_or_none", "_layouts", "_selections")
+
     KINDS: tuple[str, ...] = kinds.FILTER_KINDS
     #: Time tags may run backwards by this much (onboard-clock jitter between measurements,
     #: a first measurement tagged a clock error before the initial epoch); such a measurement

@@ -95,6 +95,8 @@ class DopplerWork:
     whole-count step (:func:`fsw.filters.radiometric_kinds.doppler_count_step`) also the clock
     phase δ, the prediction h (N, 1) and H (N, 1, n) and R (N, 1, 1)."""
 
+    __slots__ = ("z", "tt", "Yb", "uplinks", "delta", "h", "H", "R")  # slotted: see fsw.executive.FrameExecutive
+
     def __init__(self, N: int, nq: int, n: int):
         self.z = np.empty((2, N, 6))
         self.tt = np.empty(2)
@@ -112,6 +114,8 @@ class RangeWork:
     the whole-measurement step (:func:`fsw.filters.radiometric_kinds.range_measurement_step`) also
     the clock phase δ, h (N, 1), H (N, 1, n) and R (N, 1, 1)."""
 
+    __slots__ = ("z", "tt", "uplinks", "delta", "h", "H", "R")  # slotted: see fsw.executive.FrameExecutive
+
     def __init__(self, N: int, n: int):
         self.z = np.empty((1, N, 6))
         self.tt = np.empty(1)
@@ -127,6 +131,8 @@ class OpticalWork:
     for every image (read before the next one): the lines of sight g and velocities v (N, 3),
     h (N, 2), the partials Hr, Hv (N, 2, 3), H (N, 2, n) and R (N, 2, 2)."""
 
+    __slots__ = ("g", "v", "h", "Hr", "Hv", "H", "R")  # slotted: see fsw.executive.FrameExecutive
+
     def __init__(self, N: int, n: int):
         self.g = np.empty((N, 3))
         self.v = np.empty((N, 3))
@@ -139,6 +145,13 @@ class OpticalWork:
 
 class EKFStack:
     """N extended Kalman filters on a common union layout, propagated and updated together."""
+
+    # slotted: see fsw.executive.FrameExecutive
+    __slots__ = ("config", "names", "layout", "env", "t", "x", "present", "P", "batch_origin", "forces",
+                 "propagator", "_q_cols", "_z_to_state", "_state_to_q", "driver_columns", "_driver_pairs",
+                 "_clock", "_q_known", "_phi_source", "batched", "clock_q", "snc_psd", "_last_leg", "maneuvers",
+                 "_next_event", "_event_horizon", "adaptive_q", "_any_adaptive", "_no_gate", "doppler_work",
+                 "range_work", "optical_work", "_camera_arrays")
 
     def __init__(self, config: BankConfig, t0: float, r0: ArrayLike, v0: ArrayLike, env: Environment | None = None):
         self.config = config
@@ -264,6 +277,8 @@ class EKFStack:
         self.doppler_work = DopplerWork(N, nq, L.n)
         self.range_work = RangeWork(N, L.n)
         self.optical_work = OpticalWork(N, L.n)
+        #: made on first use (:attr:`cameras`)
+        self._camera_arrays: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
 
     # -- propagation ----------------------------------------------------------------------------
     def drivers(self, x: np.ndarray | None = None) -> np.ndarray:
@@ -500,12 +515,12 @@ class EKFStack:
     def cameras(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-filter camera model: focal length [px], principal point [px], light-time and
         aberration flags (the arguments of :func:`fsw.models.optical.optical`)."""
-        cached = self.__dict__.get("_camera_arrays")
+        cached = self._camera_arrays
         if cached is None:
             cams = [f.camera for f in self.config.filters]
             cached = (np.array([c.focal_px for c in cams]), np.array([c.principal_point_px for c in cams]),
                       np.array([c.light_time for c in cams]), np.array([c.aberration for c in cams]))
-            self.__dict__["_camera_arrays"] = cached
+            self._camera_arrays = cached
         return cached
 
     # -- update ---------------------------------------------------------------------------------

@@ -240,6 +240,9 @@ class GatingNetwork(ABC):
     and implement :meth:`_update`, :meth:`_reset` and :meth:`_weights`.
     """
 
+    # slotted: see fsw.executive.FrameExecutive (a subclass declares its own slots too, or keeps a dict)
+    __slots__ = ("filters", "params", "_active", "_updates", "_rejected")
+
     name: ClassVar[str] = ""
     params_type: ClassVar[type]
 

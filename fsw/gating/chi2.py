@@ -186,6 +186,9 @@ def measurement_terms(record: BankRecord, substitute_unprocessed: bool = True) -
 class Chi2Network(GatingNetwork):
     """Lubey & Ely 2022 chi-square gating network (eqs. 5–8) with batch length M and memory W̄."""
 
+    # slotted: see fsw.executive.FrameExecutive
+    __slots__ = ("_Winv", "_p", "_batch", "_count", "_sums", "_last_t", "_last_seq")
+
     name = "chi2"
     params_type: ClassVar[type] = Chi2Params
 

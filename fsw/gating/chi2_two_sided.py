@@ -98,6 +98,8 @@ class Chi2TwoSidedParams:
 class Chi2TwoSidedNetwork(Chi2Network):
     """Lubey & Ely 2022 network with G_k,i replaced by the two-sided cost D_k,i (see module docstring)."""
 
+    __slots__ = ()  # slotted: see fsw.executive.FrameExecutive
+
     name = "chi2-two-sided"
     params_type = Chi2TwoSidedParams
 

@@ -162,6 +162,8 @@ def direct_product_weights(loglik: np.ndarray, prior: np.ndarray | None = None) 
 class MagillNetwork(GatingNetwork):
     """Log-domain Magill weights with an optional probability floor (per-measurement network)."""
 
+    __slots__ = ("_logp", "_count")  # slotted: see fsw.executive.FrameExecutive
+
     name = "magill"
     params_type = MagillParams
 

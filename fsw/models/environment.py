@@ -51,6 +51,9 @@ _STATION_PREFETCH = 24
 class Environment:
     """Onboard ephemeris access with lazily built interpolation tables."""
 
+    __slots__ = ("_eph", "_span", "_step", "_table", "_table_span", "_hermite", "_stations", "_station_arrays",
+                 "_station_names", "_last_node")  # slotted: see fsw.executive.FrameExecutive
+
     def __init__(self, ephemeris: Ephemeris | None = None, table_span_days: float = 60.0, table_step_s: float = 1800.0):
         self._eph = ephemeris
         self._span = table_span_days * SECONDS_PER_DAY
@@ -69,8 +72,11 @@ class Environment:
     # they were built over: the checkpoint carries the span, and a restore rebuilds the very
     # same table from it. The station cache (up to 256 nodes) travels as one (K, 4, 3) array
     # with its keys in cache order, not as a thousand small arrays.
+    def _state(self) -> dict[str, Any]:
+        return {name: getattr(self, name) for name in self.__slots__}
+
     def __getstate__(self) -> dict[str, Any]:
-        state = dict(self.__dict__)
+        state = self._state()
         state["_table"] = None
         state["_hermite"] = None
         keys = list(self._stations)
@@ -81,7 +87,8 @@ class Environment:
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         keys, nodes = state.pop("_stations"), state.pop("_station_arrays")
-        self.__dict__.update(state)
+        for name, value in state.items():
+            setattr(self, name, value)
         self._stations = OrderedDict()
         self._station_arrays = {}
         for key, node in zip(keys, nodes):
@@ -95,7 +102,8 @@ class Environment:
         # a copy in memory (the warm-up's) copies the table rather than rebuilding it
         new = object.__new__(type(self))
         memo[id(self)] = new
-        new.__dict__.update(copy.deepcopy(self.__dict__, memo))
+        for name, value in copy.deepcopy(self._state(), memo).items():
+            setattr(new, name, value)
         return new
 
     # -- planets --------------------------------------------------------------------------------

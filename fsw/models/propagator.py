@@ -35,9 +35,14 @@ _GM = np.array([GM_MARS, GM_SUN, GM_EARTH_MOON, GM_JUPITER_SYSTEM])
 class Propagator:
     """RK4 propagation of N trajectories and their sensitivities."""
 
+    # slotted: see fsw.executive.FrameExecutive
+    __slots__ = ("env", "params", "kappa", "max_step", "frozen_gradient_tol", "_srp", "_acs_nominal", "_acs_body",
+                 "_poly_batch", "_deg", "_poly_origin")
+
     #: Bound on the relative STM change from freezing G over a step (see :meth:`propagate`);
-    #: 0 integrates the variational equations stage by stage everywhere.
-    frozen_gradient_tol = 1e-10
+    #: 0 integrates the variational equations stage by stage everywhere. Each propagator starts
+    #: with it (its ``frozen_gradient_tol``).
+    FROZEN_GRADIENT_TOL = 1e-10
 
     def __init__(self, env: Environment, params: ForceParameters, step_fraction: float = 0.02, max_step_s: float = 600.0):
         if not 0.0 < step_fraction <= 0.2 or max_step_s <= 0.0:
@@ -46,6 +51,7 @@ class Propagator:
         self.params = params
         self.kappa = step_fraction
         self.max_step = max_step_s
+        self.frozen_gradient_tol = self.FROZEN_GRADIENT_TOL
         self._srp = np.ascontiguousarray(params.srp_coefficient, dtype=float)
         self._acs_nominal = np.ascontiguousarray(params.acs_nominal, dtype=float)
         self._acs_body = np.ascontiguousarray(params.acs_body, dtype=float)

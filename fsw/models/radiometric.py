@@ -85,6 +85,9 @@ class UplinkWork:
     """Arrays :func:`solve_uplinks` fills for K epochs and N filters, kept by a caller that solves
     the same shape for every measurement (its results are read before the next solution)."""
 
+    # slotted: see fsw.executive.FrameExecutive
+    __slots__ = ("r_sc", "v_mars", "t_g", "rho", "ku", "d_rho_d_v", "d_rho_d_delta")
+
     def __init__(self, K: int, N: int):
         self.r_sc = np.empty((K, N, 3))
         self.v_mars = np.empty((K, 3))
