@@ -36,19 +36,14 @@ positions 9e-15, sigmas 3e-13).
 
 from __future__ import annotations
 
-import ctypes
-import glob
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
-GOLDEN = Path(__file__).resolve().parent / "golden"
-RECORDED_WITH = json.loads((GOLDEN / "recorded-with.json").read_text())
+from blas_kernel import GOLDEN, RECORDED_WITH, blas_core
 
 # Fields fed by the radio filter's first updates: largest |difference| accepted per field (see
 # the module docstring; measured: 0.19 km, 0.41 km in the combined position sigma, 0.08 in a weight).
@@ -61,23 +56,6 @@ CROSS_KERNEL_TOLERANCE = {
 # residual-correlation statistic of ~1e3, relative 1); what they decide — the anomaly flags,
 # classes and declaration epochs — is compared exactly.
 DECISION_ONLY = {"statistic"}
-
-
-def blas_core() -> str:
-    """The OpenBLAS kernel numpy runs on this machine ('' if it cannot be asked)."""
-    for lib in glob.glob(os.path.join(os.path.dirname(np.__file__), os.pardir, "numpy.libs", "*openblas*")):
-        try:
-            f = ctypes.CDLL(lib).scipy_openblas_get_corename64_
-        except (OSError, AttributeError):
-            continue
-        f.restype = ctypes.c_char_p
-        return f().decode()
-    return ""
-
-
-def _rerun(path: Path, out: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "tools.cli", "replay", str(path), "--rerun", "--json", str(out)],
-                          capture_output=True, text=True, timeout=300)
 
 
 #: The relative tolerance the issue demands of every float.
