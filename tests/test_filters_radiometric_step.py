@@ -1,7 +1,8 @@
 """The compiled radiometric steps against the bank's step by step path, to the bit. Doppler counts
 that span the leg just flown, counts that began before it (a range measurement came between),
-counts at the epoch the bank is at already; range measurements; and both kinds with transmit
-epochs that need another station node."""
+counts at the epoch the bank is at already, spanning the leg that brought it there or begun
+before it; range measurements; and both kinds with transmit epochs that need another station
+node."""
 
 from __future__ import annotations
 
@@ -140,9 +141,35 @@ def test_the_compiled_steps_give_the_step_by_step_results_to_the_bit(streams, mo
         assert any(not r.processed[0] for r in recs_a[60:] if r.kind == "doppler")  # the gate edited some
 
 
+def _two_legs(t1: float):
+    """Bring the bank to ``t1`` in two legs, the last 10 s long, as an estimate epoch just before a
+    time tag and a range measurement at it do in flight: a count ending at t1 then began before
+    the leg that brought the bank there."""
+    def apply(bank: FilterBank) -> None:
+        bank.propagate_to(t1 - 10.0)
+        bank.propagate_to(t1)
+    return apply
+
+
+def test_a_count_at_the_bank_epoch_that_began_before_its_last_leg_gives_the_step_by_step_results(streams,
+                                                                                               monkeypatch):
+    run = streams["simulator"]
+    ms = run.measurements
+    commands = [(k, _two_legs(m.t_s)) for k, m in enumerate(ms)
+                if k % 5 == 0 and m.kind == "doppler" and k and ms[k - 1].t_s < m.t_s - 20.0]
+    assert len(commands) > 20
+    bank_a, recs_a, statuses = _fly(run, "nominal", commands, monkeypatch, fused=True)
+    bank_b, recs_b, _ = _fly(run, "nominal", commands, monkeypatch, fused=False)
+    assert statuses["leg held, start propagated back"] == len(commands), statuses
+    for a, b in zip(recs_a, recs_b):
+        for field in ("residual", "S", "chi2", "processed", "active"):
+            assert np.array_equal(getattr(a, field), getattr(b, field)), (a.seq, field)
+    assert np.array_equal(bank_a.stack.x, bank_b.stack.x) and np.array_equal(bank_a.stack.P, bank_b.stack.P)
+
+
 def test_the_step_leaves_counts_it_cannot_take_to_the_bank(streams):
-    """A count ending at the bank's epoch that does not span the leg that brought the bank there is
-    not the step's: None, the bank untouched (the step by step path propagates its start back)."""
+    """A count ending at the bank's epoch when an event (a stochastic batch boundary) is due there
+    is not the step's: None, the bank untouched (the step by step path applies the event first)."""
     run = streams["synthetic"]
     bank = _bank(run, "nominal")
     ms = iter(run.measurements)
@@ -155,6 +182,7 @@ def test_the_step_leaves_counts_it_cannot_take_to_the_bank(streams):
     assert stack.env.last_station_node(first.source) is not None  # the step would not refuse for want of it
     x, P, t = stack.x.copy(), stack.P.copy(), stack.t
     N = len(bank.names)
-    out = rk.doppler_count_step(stack, first.source, t, 7.0 * first.count_time_s, np.array(first.value), first.sigma[0],
+    stack._next_event = t  # an event due at the bank's epoch
+    out = rk.doppler_count_step(stack, first.source, t, first.count_time_s, np.array(first.value), first.sigma[0],
                                 np.ones(N), np.ones(N, dtype=bool), np.full(N, np.inf))
     assert out is None and stack.t == t and np.array_equal(stack.x, x) and np.array_equal(stack.P, P)

@@ -504,12 +504,17 @@ class EKFStack:
         x = self.x
         if not (x.flags.c_contiguous and self.P.flags.c_contiguous) or not self._count_spans_leg(x, t, count_s):
             return None
+        _, _, x0, z1, q_leg, Y = self._last_leg  # type: ignore[misc]
+        return x0, z1, q_leg, Y, self.state_drivers()
+
+    def state_drivers(self) -> np.ndarray:
+        """The drivers q of the current state x (:meth:`drivers`), kept with it until x changes."""
+        x = self.x
         known, q = self._q_known
         if known is not x:
             q = self.drivers(x)
             self._q_known = (x, q)
-        _, _, x0, z1, q_leg, Y = self._last_leg  # type: ignore[misc]
-        return x0, z1, q_leg, Y, q
+        return q
 
     @property
     def cameras(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

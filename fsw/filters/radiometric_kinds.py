@@ -127,11 +127,11 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
     editing). Returns (residual, S, chi2, processed) as :meth:`EKFStack.update` does.
 
     It applies when the station node the last light-time solution used is this station's and the
-    leg to t1 is a plain one (:meth:`EKFStack.plain_leg`) — or the bank is at t1 already and the
-    count spans the leg that brought it there (:meth:`EKFStack.held_leg`); otherwise it returns
-    None with the bank untouched. The count's start comes from the leg when the count spans it,
-    else it is propagated back (as :meth:`EKFStack.count_start` does); transmit epochs that need
-    another table or node are looked up between the two kernels, as
+    leg to t1 is a plain one (:meth:`EKFStack.plain_leg`) — or the bank is at t1 already with
+    nothing due there (:meth:`EKFStack.at_epoch`); otherwise it returns None with the bank
+    untouched. The count's start comes from the leg just flown, or held (:meth:`EKFStack.held_leg`),
+    when the count spans it, else it is propagated back (as :meth:`EKFStack.count_start` does);
+    transmit epochs that need another table or node are looked up between the two kernels, as
     :func:`~fsw.models.radiometric.solve_uplinks` looks them up."""
     env = stack.env
     last = env.last_station_node(station)
@@ -153,13 +153,23 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
         back = table if from_leg else prop.table(t1, start)
     else:
         held = stack.held_leg(t1, count_s)
-        if held is None:
+        if held is not None:
+            x, z1, q_leg, Y, q = held
+            from_leg = True
+            back = (w.z, w.z, 0.0, 1.0)  # nothing is flown back: not read
+        elif stack.at_epoch(t1):
+            # The count began before the leg that brought the bank to t1 (an estimate epoch or a
+            # range measurement came in between): its start is propagated back from t1, as
+            # EKFStack.count_start does; the leg's arrays are then not read.
+            q = stack.state_drivers()
+            x, z1, q_leg, Y = stack.x, w.z[0], q, w.Yb
+            from_leg = False
+            back = prop.table(t1, start)
+        else:
             return None
-        x, z1, q_leg, Y, q = held
         x_prop, P = stack.x, stack.P
         P_prop = P
-        table = back = (w.z, w.z, 0.0, 1.0)  # nothing is flown: not read
-        from_leg = True
+        table = (w.z, w.z, 0.0, 1.0)  # nothing is flown: not read
     herm, t_first, step, lo_ok, hi_ok = env.hermite_window(min(t1, start) - 1.0, max(t1, start) + 1.0)
     c0, c1 = stack.clock_columns or (0, 0)
     u = w.uplinks
