@@ -9,29 +9,17 @@ recordings made on one kernel are therefore compared on that kernel, in a subpro
 
 from __future__ import annotations
 
-import ctypes
-import glob
 import json
 import os
 from pathlib import Path
 
-import numpy as np
+from tools.bench.machine import blas_core
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 #: What the committed recordings and digests were made with (``golden/recorded-with.json``).
 RECORDED_WITH = json.loads((GOLDEN / "recorded-with.json").read_text())
 
-
-def blas_core() -> str:
-    """The OpenBLAS kernel numpy runs on in this process ('' if it cannot be asked)."""
-    for lib in glob.glob(os.path.join(os.path.dirname(np.__file__), os.pardir, "numpy.libs", "*openblas*")):
-        try:
-            f = ctypes.CDLL(lib).scipy_openblas_get_corename64_
-        except (OSError, AttributeError):
-            continue
-        f.restype = ctypes.c_char_p
-        return f().decode()
-    return ""
+__all__ = ["GOLDEN", "RECORDED_WITH", "blas_core", "recorded_kernel_env"]
 
 
 def recorded_kernel_env() -> dict[str, str]:

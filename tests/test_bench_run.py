@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tools.bench import run_benchmarks
@@ -94,6 +96,10 @@ def test_filter_and_decode_rows_print_json_lines():
     for r in lines:
         assert ROW_KEYS <= set(r) and isinstance(r["met"], bool)
         assert r["ours"] > 0 and r["reference"] > 0
+        # what it ran on: the absolute figures of two runs compare only beside it
+        assert r["machine"] == lines[0]["machine"]
+        assert r["machine"]["logical_cpus"] == os.cpu_count() and r["machine"]["numpy"] == np.__version__
+        assert r["machine"]["cpu"] and isinstance(r["machine"]["blas_core"], str)
     lin, ekf3, ekf6, dec = lines
     assert lin["ratio"] == pytest.approx(lin["reference"] / lin["ours"])
     assert lin["filters"] == 6 and lin["states"] == 15 and lin["measurement_dim"] == 2

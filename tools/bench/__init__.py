@@ -1,7 +1,7 @@
 """``navbank bench``: one row per speed goal, each against a reference measured in the same run.
 
 Rows (every one: ``name``, ``ours``, ``reference``, ``unit``, ``ratio``, ``goal``, ``met``,
-``meaning`` and details; :mod:`tools.bench.rows`):
+``meaning``, details and ``machine``, what it ran on (:mod:`.machine`); :mod:`tools.bench.rows`):
 
 * :mod:`.core` — ``fsw-core-cpu`` (FSW core CPU per measurement, default scenario),
   ``fsw-core-flop-rate`` (its arithmetic's rate / numpy batched-matmul rate),
@@ -28,6 +28,7 @@ import sys
 from collections.abc import Callable
 from typing import IO, Any
 
+from tools.bench.machine import machine
 from tools.bench.rows import text_line
 
 QUICK_SPAN_DAYS = 2.0
@@ -47,11 +48,16 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
     want = only or (lambda group: True)
 
     def emit(row: dict[str, Any]) -> None:
+        row = {**row, "machine": host}
         rows.append(row)
         print(_json.dumps(row) if json else text_line(row), file=out, flush=True)
 
     def note(text: str) -> None:
         print(text, file=sys.stderr if json else out, flush=True)
+
+    host = machine()
+    if not json:  # JSON rows carry it themselves
+        print("machine: " + ", ".join(f"{key} {value}" for key, value in host.items()), file=out, flush=True)
 
     if want("filters"):
         try:
