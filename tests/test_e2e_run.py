@@ -194,3 +194,23 @@ def test_in_process_run_equals_the_multi_process_run_in_work_unit_mode(tmp_path,
         mine = [codec.to_json(m) for m in local.topic(topic)]
         assert recorded and recorded == mine, topic
     assert local.summary.anomaly.declared
+
+
+@pytest.mark.slow
+def test_a_first_run_on_a_machine_compiles_its_kernels_and_completes(tmp_path, short_scenario):
+    """The README's first command on a fresh machine: no compiled kernels cached yet, so the FSW
+    compiles them before it opens its session (about 30 s of CPU on a 2-core Xeon), while the
+    simulator, started with it, waits to reach it."""
+    cache = tmp_path / "numba-cache"
+    cache.mkdir()
+    scen = tmp_path / "short.yaml"
+    scen.write_text(short_scenario(span_days=0.5))
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "tools.cli", "run", "--scenario", str(scen), "--out", str(out),
+                           "--quiet"], capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "NUMBA_CACHE_DIR": str(cache)})
+    assert proc.returncode == 0, proc.stderr[-3000:] + proc.stdout[-3000:]
+    assert list(cache.rglob("*.nbi")), "the kernels were compiled into the empty cache"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["measurements"]["processed"] == summary["measurements"]["published"] > 0
+

@@ -122,6 +122,8 @@ def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[st
     base = [sys.executable, "-m", "tools.cli"]
     before = [eps[r] for r in ROLES[: ROLES.index(role)]]
     connect = [a for ep in before for a in ("--connect", ep)]
+    if connect:
+        connect += ["--connect-timeout", f"{PEER_START_S:g}"]
     net = ["--listen", eps[role], *connect, *(["--credentials", str(credentials)] if credentials else [])]
     if role == "ground":
         # The producers are our own processes, which encode from the ICD types: strict re-validation
@@ -137,6 +139,12 @@ def _command(role: str, cfg_path: Path, run_id: str, out_dir: Path, eps: dict[st
             *paced, *net]
 
 
+#: How long a process waits for the ones started before it to open their sessions. The three
+#: start together, and the FSW opens its session only once its kernels are loaded: on a machine's
+#: first run they are compiled first (about 30 s of CPU on a 2-core Xeon), and the simulator's
+#: default 10 s to reach every peer ran out. A process that dies instead is seen by the launcher
+#: at once (it stops the others), so waiting longer costs nothing when a peer fails.
+PEER_START_S = 300.0
 #: The FSW's checkpoint file in the run directory (``fsw.checkpoint`` sets the cadence).
 CHECKPOINT = "fsw.ckpt"
 #: How long the producers wait for a restarted logger each time it is away (then they go on).
