@@ -43,10 +43,20 @@ def screen(meas: Measurement, dimensions: Mapping[str, int | None]) -> tuple[np.
     if not isinstance(kind, str) or kind not in dimensions:
         raise MeasurementRejected("unknown_kind", f"no model for measurement kind {kind!r}")
     t = getattr(meas, "t_s", None)
+    value = getattr(meas, "value", None)
+    sigma = getattr(meas, "sigma", None)
+    if type(t) is float and type(value) is tuple and type(sigma) is tuple and len(value) == 1 == len(sigma):
+        # a scalar measurement as decoded (range, Doppler: most of them), tested on its three
+        # Python floats at once; accepts only what the checks below accept (x - x is 0 exactly
+        # for a finite x), anything else goes through them for its reason
+        v, s = value[0], sigma[0]
+        if (type(v) is float and type(s) is float and t - t == 0.0 and v - v == 0.0 and 0.0 < s < math.inf
+                and dimensions.get(kind) in (None, 1)):
+            return np.array(value), np.array(sigma)
     if isinstance(t, bool) or not isinstance(t, (int, float, np.floating)) or not math.isfinite(t):
         raise MeasurementRejected("non_finite", f"time tag {t!r} is not a finite number")
-    value = _finite_vector(getattr(meas, "value", None), "value")
-    sigma = _finite_vector(getattr(meas, "sigma", None), "sigma")
+    value = _finite_vector(value, "value")
+    sigma = _finite_vector(sigma, "sigma")
     want = dimensions.get(kind)
     if want is not None and value.size != want:
         raise MeasurementRejected("bad_dimension", f"{kind} has {want} component(s), got {value.size}")
