@@ -200,3 +200,83 @@ def test_fsw_startup_cpu_of_a_command_that_exits_is_none(tmp_path):
     bad = tmp_path / "config.yaml"
     bad.write_text("fsw: [not, a, mapping]\n", encoding="utf-8")
     assert fsw_startup_cpu(bad, timeout_s=60.0) is None
+
+
+def _flown_core(mode: str):
+    """A short arc of the default scenario through an FswCore in budget mode ``mode``: (the core,
+    its BudgetReports)."""
+    import dataclasses
+
+    from fsw.core import FswCore
+    from fsw.interface import messages as m
+    from sim.stream import generate
+    from tools.bench.core import scenario
+    from tools.scenario import resolve
+
+    cfg, seed = resolve(scenario(0.5), 1)
+    budget = dataclasses.replace(cfg.fsw.budget, mode=mode)
+    fsw_cfg = dataclasses.replace(cfg.fsw, budget=budget)
+    reports = []
+    core = FswCore(fsw_cfg, lambda topic, msg: reports.append(msg) if topic == "fsw/budget" else None)
+    core.start()
+    for _, msg in generate(cfg.sim, seed=seed).iter_messages():
+        if isinstance(msg, m.Measurement):
+            core.ingest(msg)
+    core.finish()
+    return core, reports
+
+
+def test_stage_cpu_from_budget_reports_is_what_the_executive_measured():
+    from fsw.interface import codec
+    from tools.bench.core import stage_cpu_s
+
+    core, reports = _flown_core("cpu")
+    measured = core.executive.stats.cpu_measured_s
+    scale = core.config.budget.cpu_scale
+    assert measured > 0.0 and len(reports) > 100
+    # the reports' charged CPU, unscaled, adds up to the executive's own running total of the
+    # stages' measured CPU: no frame that ran a stage went unreported
+    assert stage_cpu_s(reports, scale) == pytest.approx(measured, rel=1e-9)
+    # the same from the reports as the ground reads them (JSON objects)
+    as_json = [json.loads(codec.to_json(r)) for r in reports]
+    assert stage_cpu_s(as_json, scale) == pytest.approx(measured, rel=1e-9)
+    assert stage_cpu_s([], scale) is None
+
+
+def test_stage_cpu_of_work_unit_reports_is_unknown():
+    from tools.bench.core import stage_cpu_s
+
+    core, reports = _flown_core("work-units")
+    assert reports and stage_cpu_s(reports, core.config.budget.cpu_scale) is None
+
+
+def test_the_fsw_process_cpu_split_adds_up():
+    from tools.bench.navrun import cpu_split
+
+    split = cpu_split(fsw_cpu_s=7.0, startup_s=1.0, fsw_stage_s=3.9, core_cpu_s=3.6, core_stage_s=3.0)
+    assert split["stage_cpu_ratio"] == pytest.approx(1.3)
+    assert split["fsw_other_cpu_s"] == pytest.approx(2.1) and split["core_other_cpu_s"] == pytest.approx(0.6)
+    assert 1.0 + split["fsw_stage_cpu_s"] + split["fsw_other_cpu_s"] == pytest.approx(7.0)
+    unknown = cpu_split(fsw_cpu_s=7.0, startup_s=None, fsw_stage_s=3.9, core_cpu_s=3.6, core_stage_s=None)
+    assert unknown["fsw_other_cpu_s"] is None and unknown["stage_cpu_ratio"] is None
+    assert unknown["core_other_cpu_s"] is None and unknown["fsw_stage_cpu_s"] == 3.9
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+def test_navbank_run_rows_split_the_fsw_process_cpu():
+    from tools.bench.core import scenario
+    from tools.bench.navrun import navrun_rows
+
+    rows = {r["name"]: r for r in navrun_rows(scenario(0.5), 1, core_cpu_us=100.0, core_stage_cpu_us=80.0)}
+    assert set(rows) == {"budget-overruns-navbank-run", "navbank-run-wall", "navbank-run-fsw-cpu"}
+    cpu = rows["navbank-run-fsw-cpu"]
+    assert not cpu.get("skipped"), cpu
+    n = cpu["measurements"]
+    assert n > 100 and cpu["reference"] == pytest.approx(100e-6 * n)
+    assert cpu["core_stage_cpu_s"] == pytest.approx(80e-6 * n) and cpu["core_other_cpu_s"] == pytest.approx(20e-6 * n)
+    # the stages ran in the FSW process, inside its CPU and after its start-up
+    assert 0.0 < cpu["fsw_stage_cpu_s"] < cpu["ours"]
+    assert cpu["fsw_startup_cpu_s"] is not None and cpu["fsw_other_cpu_s"] is not None
+    assert cpu["fsw_startup_cpu_s"] + cpu["fsw_stage_cpu_s"] + cpu["fsw_other_cpu_s"] == pytest.approx(cpu["ours"])
+    assert cpu["stage_cpu_ratio"] == pytest.approx(cpu["fsw_stage_cpu_s"] / cpu["core_stage_cpu_s"])

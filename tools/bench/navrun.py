@@ -14,6 +14,16 @@ core built, the session opened): ``fsw_startup_cpu_s`` is the CPU of the same FS
 run's resolved configuration, once it is up and idle waiting for data (:func:`fsw_startup_cpu`),
 and ``ratio_after_startup`` the row's ratio without it.
 
+It also splits the rest in two, on both sides, so that what the ratio measures can be told apart:
+``fsw_stage_cpu_s`` is the CPU the executive measured inside the core's stages in the process
+(the run's recorded BudgetReports, :func:`tools.bench.core.stage_cpu_s`), ``core_stage_cpu_s``
+the same for the core flown alone (scaled to the run's measurements), and ``stage_cpu_ratio``
+their quotient: the same stages, on the same data, costing more only because the machine is
+shared with the simulator, the logger and Zenoh's threads (caches, memory, a 2-core host's
+scheduler). ``fsw_other_cpu_s`` is the process's CPU outside start-up and stages — transport
+(receive, decode, encode, publish), checkpoints, and the core's work between stages (executive
+bookkeeping, per-frame telemetry) — against ``core_other_cpu_s``, the last of these alone.
+
 All three always fly the whole default scenario (45 days), ``--quick`` or not: a run's process start
 is a fixed cost, which no scaling of a shorter run would show.
 
@@ -33,8 +43,10 @@ import time
 from pathlib import Path
 from typing import Any
 
+from fsw.interface import topics
 from fsw.transport.session import free_tcp_ports
-from tools.bench.core import OVERRUN_GOAL
+from ground.mcap_io.reader import McapReadError, read_messages
+from tools.bench.core import OVERRUN_GOAL, stage_cpu_s
 from tools.bench.rows import Goal, make_row, skipped_row
 from tools.scenario import ScenarioConfig, to_yaml
 
@@ -146,17 +158,25 @@ def run_three_processes(cfg: ScenarioConfig, seed: int, timeout_s: float = 900.0
             budget = {k: summary["budget"][k] for k in ("overruns", "frames", "max_utilisation", "mode")}
         except (OSError, ValueError, KeyError, TypeError):
             published, budget = 0, {}
+        stages = None
+        try:
+            if proc.returncode == 0:
+                stages = stage_cpu_s((lm.message for lm in read_messages(Path(tmp) / "run" / "run.mcap", topics.FSW_BUDGET)),
+                                     cfg.fsw.budget.cpu_scale)
+        except (OSError, McapReadError):
+            stages = None
         # the run's own resolved configuration (seed and a-priori state fixed), as its FSW read it
         resolved = Path(tmp) / "run" / "config.yaml"
         startup = fsw_startup_cpu(resolved) if proc.returncode == 0 and resolved.is_file() else None
     return {"wall_s": wall, "cpu_s": cpu, "returncode": proc.returncode, "stderr_tail": (err or "")[-400:],
-            "measurements": published, "budget": budget, "fsw_startup_cpu_s": startup}
+            "measurements": published, "budget": budget, "fsw_startup_cpu_s": startup, "fsw_stage_cpu_s": stages}
 
 
-def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float) -> list[dict[str, Any]]:
-    """The two rows; ``core_cpu_us`` is the in-process FSW core's CPU per measurement for the same
+def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float,
+                core_stage_cpu_us: float | None = None) -> list[dict[str, Any]]:
+    """The rows; ``core_cpu_us`` is the in-process FSW core's CPU per measurement for the same
     scenario (:mod:`tools.bench.core`, possibly over a shorter arc: the reference is that figure
-    times the run's measurements)."""
+    times the run's measurements), ``core_stage_cpu_us`` the part of it inside its stages."""
     if not Path("/proc/self/stat").exists():
         return [skipped_row("navbank-run-wall", "s wall", WALL_GOAL, "needs /proc"),
                 skipped_row("navbank-run-fsw-cpu", "s CPU", CPU_GOAL, "needs /proc")]
@@ -170,6 +190,8 @@ def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float) -> list[dict
     core_cpu_s = core_cpu_us * 1e-6 * res["measurements"]
     fsw_cpu, startup = res["cpu_s"].get("fsw", 0.0), res["fsw_startup_cpu_s"]
     b = res["budget"]
+    split = cpu_split(fsw_cpu, startup, res["fsw_stage_cpu_s"], core_cpu_s,
+                      None if core_stage_cpu_us is None else core_stage_cpu_us * 1e-6 * res["measurements"])
     overruns = ([make_row("budget-overruns-navbank-run", b["overruns"], b["frames"], "overruns", OVERRUN_GOAL,
                           "overruns of the FSW process at the nominal budget incl. its start-up (reference: frames run)",
                           budget_mode=b["mode"], max_utilisation=b["max_utilisation"], **common)]
@@ -181,8 +203,22 @@ def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float) -> list[dict
                  "FSW process CPU / the same FSW core's CPU in process (<= 1.3)", core_cpu_us=core_cpu_us,
                  fsw_startup_cpu_s=startup,
                  ratio_after_startup=None if startup is None or core_cpu_s <= 0.0 else (fsw_cpu - startup) / core_cpu_s,
-                 **common),
+                 **split, **common),
     ]
 
 
-__all__ = ["fsw_startup_cpu", "navrun_rows", "run_three_processes"]
+def cpu_split(fsw_cpu_s: float, startup_s: float | None, fsw_stage_s: float | None, core_cpu_s: float,
+              core_stage_s: float | None) -> dict[str, float | None]:
+    """The FSW process's CPU and the core's alone, each split into stages and the rest (see the
+    module docstring); a part that was not measured is None."""
+    known = startup_s is not None and fsw_stage_s is not None
+    return {
+        "fsw_stage_cpu_s": fsw_stage_s,
+        "core_stage_cpu_s": core_stage_s,
+        "stage_cpu_ratio": (fsw_stage_s / core_stage_s if fsw_stage_s is not None and core_stage_s else None),
+        "fsw_other_cpu_s": fsw_cpu_s - startup_s - fsw_stage_s if known else None,  # type: ignore[operator]
+        "core_other_cpu_s": core_cpu_s - core_stage_s if core_stage_s is not None else None,
+    }
+
+
+__all__ = ["cpu_split", "fsw_startup_cpu", "navrun_rows", "run_three_processes"]
