@@ -55,6 +55,28 @@ def test_truth_and_estimate_make_a_scene_in_metres():
     assert [r.topic for r in again] == ["/plot/position_error/combined"]
 
 
+def test_the_earth_arrow_points_at_earth_as_de421_puts_it():
+    from fsw.astro.ephemeris import default_ephemeris
+
+    view = FoxgloveView(scene_every_s=3600.0)
+    truth = _example("Truth")
+    # hourly scenes for 25 days: the scene's tables of Earth's position (ten days each) are
+    # made, and left, along the way
+    for k, t in enumerate(truth.t_s + 3600.0 * np.arange(0, 25 * 24, 7)):
+        est = m.Estimate(t_s=float(t), timestamp=truth.timestamp, filter="combined", position_km=truth.position_km,
+                         velocity_km_s=truth.velocity_km_s, position_sigma_km=3.0, state_names=("x", "y", "z"),
+                         state=truth.position_km, sigma=(1.0, 2.0, 0.5))
+        scene = [r for r in view.convert("fsw/estimate/combined", codec.to_json(est), k) if r.topic == "/foxglove/scene"]
+        (arrow,) = {e.id: e for e in _decode(scene[0]).entities}["earth-direction"].arrows
+        q = arrow.pose.orientation
+        w, v = q.w, np.array([q.x, q.y, q.z])
+        x = np.array([1.0, 0.0, 0.0])
+        pointed = x + 2.0 * w * np.cross(v, x) + 2.0 * np.cross(v, np.cross(v, x))  # +x rotated by q
+        earth = default_ephemeris().position("earth", float(t), "mars")
+        cos = float(pointed @ earth) / (np.linalg.norm(pointed) * np.linalg.norm(earth))
+        assert np.arccos(min(cos, 1.0)) < 1e-7  # radians
+
+
 def test_ellipsoid_orientation_maps_the_principal_axes():
     rng = np.random.default_rng(4)
     a = rng.normal(size=(3, 3))
