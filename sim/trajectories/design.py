@@ -13,6 +13,7 @@ from sim.truth.timescales import utc_iso_to_tdb
 from sim.dynamics.config import ForceModelConfig, TrajectoryConfig
 from sim.dynamics.propagator import Trajectory
 from sim.trajectories import insight, pathfinder
+from sim.trajectories.design_cache import cached_state
 
 
 def arc_span(cfg: TrajectoryConfig) -> tuple[float, float]:
@@ -26,21 +27,31 @@ def arc_span(cfg: TrajectoryConfig) -> tuple[float, float]:
 
 
 def initial_state(cfg: TrajectoryConfig, forces: ForceModelConfig) -> tuple[float, np.ndarray]:
-    """(t0_tdb, Mars-centred ICRF state) of the design trajectory at the start of the arc."""
+    """(t0_tdb, Mars-centred ICRF state) of the design trajectory at the start of the arc, kept
+    on disk between processes (:mod:`sim.trajectories.design_cache`)."""
     if cfg.kind == "pathfinder-cruise":
-        return pathfinder.pathfinder_initial_state(cfg, forces)
-    if cfg.kind == "insight-approach":
-        return insight.insight_initial_state(cfg, forces)
-    raise ValueError(f"unknown trajectory kind {cfg.kind!r}")
+        design = pathfinder.pathfinder_initial_state
+    elif cfg.kind == "insight-approach":
+        design = insight.insight_initial_state
+    else:
+        raise ValueError(f"unknown trajectory kind {cfg.kind!r}")
+
+    def compute() -> tuple[float, tuple[float, ...]]:
+        t0, x0 = design(cfg, forces)
+        return t0, tuple(x0)
+
+    t0, x0 = cached_state(cfg, forces, compute)
+    return t0, np.array(x0)
 
 
 def build_truth_trajectory(
     cfg: TrajectoryConfig, forces: ForceModelConfig, rng: np.random.Generator | None,
     nga_rng: np.random.Generator | None = None,
 ) -> Trajectory:
-    """The truth arc under one draw of the stochastic forces (``nga_rng``: the NGA's own stream)."""
+    """The truth arc under one draw of the stochastic forces (``nga_rng``: the NGA's own stream),
+    from the design initial state (:func:`initial_state`: kept between processes)."""
     if cfg.kind == "pathfinder-cruise":
-        return pathfinder.build_truth_trajectory(cfg, forces, rng, nga_rng)
+        return pathfinder.build_truth_trajectory(cfg, forces, rng, nga_rng, initial_state(cfg, forces))
     if cfg.kind == "insight-approach":
-        return insight.build_truth_trajectory(cfg, forces, rng, nga_rng)
+        return insight.build_truth_trajectory(cfg, forces, rng, nga_rng, initial_state(cfg, forces))
     raise ValueError(f"unknown trajectory kind {cfg.kind!r}")

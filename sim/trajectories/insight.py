@@ -77,14 +77,14 @@ def insight_initial_state(
 
 def build_truth_trajectory(
     cfg: TrajectoryConfig, forces: ForceModelConfig, rng: np.random.Generator | None,
-    nga_rng: np.random.Generator | None = None,
+    nga_rng: np.random.Generator | None = None, initial: tuple[float, np.ndarray] | None = None,
 ) -> Trajectory:
     """The truth arc from the design initial state under one draw of the stochastic forces.
 
     ``rng`` may be None only when ``forces`` has no dispersions; ``nga_rng`` is needed only
     with a non-gravitational acceleration.
     """
-    t0, x0 = insight_initial_state(cfg, forces)
+    t0, x0 = insight_initial_state(cfg, forces) if initial is None else initial  # the design state, if the caller has it
     t1 = t0 + cfg.span_days * SECONDS_PER_DAY
     real = StochasticRealisation.draw(forces, t0, t1, rng, nga_rng)
     table = make_table(t0, t1, cfg.ephemeris_step_s)

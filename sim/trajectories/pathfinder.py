@@ -142,10 +142,10 @@ def design_miss_km(cfg: TrajectoryConfig, forces: ForceModelConfig) -> float:
 
 def build_truth_trajectory(
     cfg: TrajectoryConfig, forces: ForceModelConfig, rng: np.random.Generator | None,
-    nga_rng: np.random.Generator | None = None,
+    nga_rng: np.random.Generator | None = None, initial: tuple[float, np.ndarray] | None = None,
 ) -> Trajectory:
     """The truth arc from the design initial state under one draw of the stochastic forces."""
-    t0, x0 = pathfinder_initial_state(cfg, forces)
+    t0, x0 = pathfinder_initial_state(cfg, forces) if initial is None else initial  # the design state, if the caller has it
     _, t1 = cruise_span(cfg)
     real = StochasticRealisation.draw(forces, t0, t1, rng, nga_rng)
     table = make_table(t0, t1, cfg.ephemeris_step_s)

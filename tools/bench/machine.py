@@ -8,8 +8,6 @@ Rows of two runs are comparable only with this beside them.
 
 from __future__ import annotations
 
-import ctypes
-import glob
 import os
 import platform
 from functools import lru_cache
@@ -17,17 +15,7 @@ from typing import Any
 
 import numpy as np
 
-
-def blas_core() -> str:
-    """The OpenBLAS kernel numpy runs on in this process ('' if it cannot be asked)."""
-    for lib in glob.glob(os.path.join(os.path.dirname(np.__file__), os.pardir, "numpy.libs", "*openblas*")):
-        try:
-            f = ctypes.CDLL(lib).scipy_openblas_get_corename64_
-        except (OSError, AttributeError):
-            continue
-        f.restype = ctypes.c_char_p
-        return f().decode()
-    return ""
+from sim.numerics import blas_core
 
 
 def _cpu_model() -> str:
