@@ -255,11 +255,12 @@ class FrameExecutive:
         # One clock reading per stage: the end of one stage is the start of the next, so the
         # executive's own bookkeeping between them is charged to the stage it leads to.
         mark: float | None = None
+        fifo = queue.fifo
         while not full:
             # The stages to run next, in order: the rest of one job while the policy would pick
             # them one after the other anyway (the usual frame: one measurement's job), else the
-            # policy's one pick.
-            if queue.single:
+            # policy's one pick (StageQueue.single, spelled out: asked for every job of a frame).
+            if fifo or queue.pending_jobs <= 1:
                 state = oldest()
                 if state is None:
                     break
@@ -288,7 +289,9 @@ class FrameExecutive:
                 except Exception as exc:  # a faulty stage must never stop the executive
                     self._record_error(frame, state, stage, exc)
                 mark = clock()
-                measured = measured_interval(start, mark)
+                measured = mark - start
+                if not 0.0 <= measured < math.inf:  # measured_interval, spelled out: a clock that misbehaves charges nothing
+                    measured = 0.0
                 self._cpu_measured += measured
                 cost = charge(stage, measured)
                 if cost > remaining:
@@ -309,21 +312,10 @@ class FrameExecutive:
         self._backlog_warnings += int(warning)
         self._used_total += used
         self._budget_total += budget
-        return BudgetReportData(
-            frame=frame,
-            t_s=t_end,
-            mode=self.config.mode,
-            used=used,
-            budget=budget,
-            utilisation=used / budget,
-            processed=processed,
-            deferred=queue.pending_stages,
-            backlog=backlog,
-            overruns=self._overruns,
-            errors=self._error_count,
-            lag_s=(t_end - behind.job.t) if behind is not None else 0.0,
-            backlog_warning=warning,
-        )
+        # by position, in the declaration's order (one per frame)
+        return BudgetReportData(frame, t_end, self.config.mode, used, budget, used / budget, processed,
+                                queue.pending_stages, backlog, self._overruns, self._error_count,
+                                (t_end - behind.job.t) if behind is not None else 0.0, warning)
 
     def _record_error(self, frame: int, state: JobState, stage: Stage, exc: Exception) -> None:
         self._error_count += 1

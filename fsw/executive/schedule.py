@@ -112,6 +112,11 @@ class StageQueue:
         return best
 
     @property
+    def fifo(self) -> bool:
+        """Whether the policy is ``fifo`` (every job's stages in job order, one job after the other)."""
+        return self._policy == "fifo"
+
+    @property
     def single(self) -> bool:
         """Whether the next stages are one job's, in its order, whichever the policy: under
         ``fifo`` always; under ``priority`` while at most one job is outstanding (its one ready
