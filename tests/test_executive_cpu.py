@@ -32,6 +32,29 @@ def test_cpu_scale_multiplies_the_measured_cost():
     assert abs(ex.stats.cpu_measured_s - 0.1) < 1e-12
 
 
+def test_a_clock_that_misbehaves_charges_nothing():
+    """A reading that goes backwards, is NaN or is infinite (a broken or wrapped clock) charges
+    the stage it ends 0 CPU: the frame reports a finite use and the executive goes on."""
+    clock = FakeClock()
+
+    def jump(to):
+        def fn():
+            clock.now = to
+        return fn
+
+    cfg = BudgetConfig(mode="cpu", cpu_budget_s=1.0, cpu_scale=2.0)
+    ex = FrameExecutive(cfg, clock=clock)
+    stages = (Stage("primary", clock.burn(0.25), name="a"), Stage("gating", jump(0.1), name="backwards"),
+              Stage("gating", jump(float("nan")), name="nan"), Stage("gating", jump(0.5), name="after-nan"),
+              Stage("gating", jump(float("inf")), name="inf"), Stage("gating", jump(0.75), name="after-inf"),
+              Stage("telemetry", clock.burn(0.125), name="b"))
+    ex.submit(Job(t=0.0, stages=stages))
+    report = ex.run_frame()
+    assert report.processed == len(stages) and report.overruns == 0
+    # only the two well-measured stages are charged: (0.25 + 0.125) x cpu_scale
+    assert report.used == 0.75 and ex.stats.cpu_measured_s == 0.375
+
+
 def test_admission_learns_the_cost_and_stops_overrunning():
     """Stages of 3 ms against a 10 ms budget: once the cost is learned, exactly 3 run per frame
     (a 4th would need 12 ms) and no frame overruns."""

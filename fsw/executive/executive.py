@@ -30,7 +30,7 @@ from collections import deque
 from typing import Any, Callable
 
 from fsw.executive.config import BudgetConfig
-from fsw.executive.meter import CpuMeter, WorkUnitMeter, measured_interval
+from fsw.executive.meter import CpuMeter, WorkUnitMeter
 from fsw.executive.report import BudgetReportData, DrainResult, ExecutiveStats, StageError
 from fsw.executive.schedule import JobState, StageQueue
 from fsw.executive.work import Job, JobError, JobOrderError, Stage
@@ -290,7 +290,7 @@ class FrameExecutive:
                     self._record_error(frame, state, stage, exc)
                 mark = clock()
                 measured = mark - start
-                if not 0.0 <= measured < math.inf:  # measured_interval, spelled out: a clock that misbehaves charges nothing
+                if not 0.0 <= measured < math.inf:  # a clock that misbehaves (NaN, inf, backwards) charges nothing
                     measured = 0.0
                 self._cpu_measured += measured
                 cost = charge(stage, measured)

@@ -8,7 +8,6 @@ larger than a whole frame cannot stall the executive (it then counts as an overr
 
 from __future__ import annotations
 
-import math
 
 from fsw.executive.config import BudgetConfig
 from fsw.executive.work import Stage
@@ -119,11 +118,3 @@ class CpuMeter:
     def estimates(self) -> dict[str, tuple[float, float]]:
         """(mean, mean absolute deviation) of the charged cost per stage label."""
         return {key: (rec.mean, rec.dev) for key, rec in self._estimated.items()}  # type: ignore[misc]
-
-
-def measured_interval(start: float, end: float) -> float:
-    """CPU seconds between two clock readings; a clock that misbehaves charges nothing."""
-    dt = end - start
-    if not math.isfinite(dt) or dt < 0.0:
-        return 0.0
-    return dt
