@@ -1,7 +1,7 @@
 """Campaign-throughput rows of ``navbank bench``: runs per minute on 1 and 2 workers.
 
 One small nominal campaign of the default scenario (``insight-approach``, fault case ``none``,
-2 runs per worker) is run by :func:`tools.campaign.runner.run_campaign` — the code
+3 runs per worker; 4 on ``--quick``'s short arcs) is run by :func:`tools.campaign.runner.run_campaign` — the code
 ``navbank campaign`` runs — on:
 
 * the local spawn pool with 1 worker (``r1``) and with 2 workers;
@@ -19,7 +19,9 @@ being a task adds per run: decoding the task, building the row, pickling; goal �
 Each rate is the steady state of warm workers: the executor first runs one short priming run
 per worker (which starts and warms it, :mod:`tools.campaign.warm`; its time is the detail
 ``start_s``, paid once per campaign), then the rate counts from submitting the first measured
-run to storing the last row. The machine may be shared: rates are wall-clock, so other load
+run to storing the last row, which includes what an executor adds once per campaign (dask's first
+task and last result cross its scheduler: ~0.5 s in 10 s of 45-day runs, two per worker, where
+the local pool's rate and dask's agreed within 2-4 % at three per worker). The machine may be shared: rates are wall-clock, so other load
 lowers them — where the kernel shares CPU per session (autogroup), a campaign's processes share
 one session's part however many workers it has. The detail ``cpu_gain`` (from the runs' CPU
 times, :func:`cpu_gain`) says what the second worker would add with a core of its own.
@@ -91,7 +93,7 @@ def cpu_gain(one: dict[str, Any], two: dict[str, Any]) -> float | None:
     return 2.0 * c1 / c2 - 1.0 if c1 and c2 else None
 
 
-def campaign_rows(span_days: float, inprocess_cpu_s: float | None = None, runs_per_worker: int = 2,
+def campaign_rows(span_days: float, inprocess_cpu_s: float | None = None, runs_per_worker: int = 3,
                   dask: bool = True) -> list[dict[str, Any]]:
     """The campaign rows (see the module docstring). ``inprocess_cpu_s``: the CPU of one in-process
     run over the same arc (:func:`tools.inprocess.run_in_process`), for the worker-overhead row."""
