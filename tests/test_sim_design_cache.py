@@ -94,6 +94,19 @@ def test_an_unusable_cache_directory_only_means_computing(tmp_path, monkeypatch)
     assert t0 == d_t0 and x0.tolist() == d_x0.tolist()
 
 
+def test_a_process_without_a_home_directory_computes(monkeypatch):
+    def no_home():
+        raise RuntimeError("Could not determine home directory.")
+
+    for var in ("NAVBANK_CACHE_DIR", "XDG_CACHE_HOME"):
+        monkeypatch.delenv(var, raising=False)
+    monkeypatch.setattr(Path, "home", staticmethod(no_home))
+    assert design_cache.cache_dir() is None
+    t0, x0 = initial_state(CFG, FORCES)
+    d_t0, d_x0 = _direct()
+    assert t0 == d_t0 and x0.tolist() == d_x0.tolist()
+
+
 def test_the_key_covers_every_source_of_sim_and_fsw(tmp_path, monkeypatch):
     stamp = design_cache.source_stamp()
     sources = [p for pkg in ("sim", "fsw") for p in sorted((ROOT / pkg).rglob("*.py"))]

@@ -39,11 +39,15 @@ FORMAT = "navbank-design-state/1"
 _PACKAGES = ("sim", "fsw")
 
 
-def cache_dir() -> Path:
-    """Where the states are kept (not necessarily existing or writable)."""
+def cache_dir() -> Path | None:
+    """Where the states are kept (not necessarily existing or writable); None if this process
+    has no home directory to put them in."""
     root = os.environ.get("NAVBANK_CACHE_DIR")
     if not root:
-        root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "navbank")
+        try:
+            root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "navbank")
+        except (RuntimeError, KeyError):  # Path.home() of a user without one
+            return None
     return Path(root) / "design-states"
 
 
@@ -101,14 +105,16 @@ def cached_state(cfg: TrajectoryConfig, forces: ForceModelConfig,
                  compute: Callable[[], tuple[float, tuple[float, ...]]]) -> tuple[float, tuple[float, ...]]:
     """``compute()``'s (t0, state) for this configuration, from the cache if it holds it, else
     computed and kept there."""
+    directory = cache_dir()
     name = key(cfg, forces)
-    path = cache_dir() / f"{name}.json"
-    found = _read(path, name)
+    path = None if directory is None else directory / f"{name}.json"
+    found = None if path is None else _read(path, name)
     if found is not None:
         return found
     t0, x0 = compute()
     t0, x0 = float(t0), tuple(float(v) for v in x0)
-    _write(path, name, t0, x0)
+    if path is not None:
+        _write(path, name, t0, x0)
     return t0, x0
 
 
