@@ -290,8 +290,8 @@ class FrameExecutive:
                     self._record_error(frame, state, stage, exc)
                 mark = clock()
                 measured = mark - start
-                if not 0.0 <= measured < math.inf:  # a clock that misbehaves (NaN, inf, backwards) charges nothing
-                    measured = 0.0
+                if not 0.0 <= measured < math.inf:
+                    measured = 0.0  # a clock that misbehaves (NaN, infinite, backwards) charges nothing
                 self._cpu_measured += measured
                 cost = charge(stage, measured)
                 if cost > remaining:

@@ -84,7 +84,8 @@ def build_truth_trajectory(
     ``rng`` may be None only when ``forces`` has no dispersions; ``nga_rng`` is needed only
     with a non-gravitational acceleration.
     """
-    t0, x0 = insight_initial_state(cfg, forces) if initial is None else initial  # the design state, if the caller has it
+    # the design state, if the caller has it
+    t0, x0 = insight_initial_state(cfg, forces) if initial is None else initial
     t1 = t0 + cfg.span_days * SECONDS_PER_DAY
     real = StochasticRealisation.draw(forces, t0, t1, rng, nga_rng)
     table = make_table(t0, t1, cfg.ephemeris_step_s)

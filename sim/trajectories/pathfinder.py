@@ -145,7 +145,8 @@ def build_truth_trajectory(
     nga_rng: np.random.Generator | None = None, initial: tuple[float, np.ndarray] | None = None,
 ) -> Trajectory:
     """The truth arc from the design initial state under one draw of the stochastic forces."""
-    t0, x0 = pathfinder_initial_state(cfg, forces) if initial is None else initial  # the design state, if the caller has it
+    # the design state, if the caller has it
+    t0, x0 = pathfinder_initial_state(cfg, forces) if initial is None else initial
     _, t1 = cruise_span(cfg)
     real = StochasticRealisation.draw(forces, t0, t1, rng, nga_rng)
     table = make_table(t0, t1, cfg.ephemeris_step_s)

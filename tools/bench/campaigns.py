@@ -21,8 +21,8 @@ per worker (which starts and warms it, :mod:`tools.campaign.warm`; its time is t
 ``start_s``, paid once per campaign), then the rate counts from submitting the first measured
 run to storing the last row, which includes what an executor adds once per campaign (dask's first
 task and last result cross its scheduler: ~0.5 s in 10 s of 45-day runs, two per worker, where
-the local pool's rate and dask's agreed within 2-4 % at three per worker). The machine may be shared: rates are wall-clock, so other load
-lowers them — where the kernel shares CPU per session (autogroup), a campaign's processes share
+the local pool's rate and dask's agreed within 2-4 % at three per worker). The machine may be
+shared: rates are wall-clock, so other load lowers them — where the kernel shares CPU per session (autogroup), a campaign's processes share
 one session's part however many workers it has. The detail ``cpu_gain`` (from the runs' CPU
 times, :func:`cpu_gain`) says what the second worker would add with a core of its own.
 """

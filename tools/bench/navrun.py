@@ -161,8 +161,8 @@ def run_three_processes(cfg: ScenarioConfig, seed: int, timeout_s: float = 900.0
         stages = None
         try:
             if proc.returncode == 0:
-                stages = stage_cpu_s((lm.message for lm in read_messages(Path(tmp) / "run" / "run.mcap", topics.FSW_BUDGET)),
-                                     cfg.fsw.budget.cpu_scale)
+                reports = read_messages(Path(tmp) / "run" / "run.mcap", topics.FSW_BUDGET)
+                stages = stage_cpu_s((lm.message for lm in reports), cfg.fsw.budget.cpu_scale)
         except (OSError, McapReadError):
             stages = None
         # the run's own resolved configuration (seed and a-priori state fixed), as its FSW read it
