@@ -250,6 +250,44 @@ def test_stage_cpu_of_work_unit_reports_is_unknown():
     assert reports and stage_cpu_s(reports, core.config.budget.cpu_scale) is None
 
 
+def test_the_status_counts_each_stage_labels_cpu():
+    from fsw.core.counters import STAGE_CPU_PREFIX, stage_cpu_by_label
+    from fsw.interface import codec, messages as m
+    from tools.bench.core import stage_us_per_measurement
+
+    core, _ = _flown_core("cpu")
+    measured = core.executive.stage_cpu()
+    counts = core.status_counts()
+    # what the executive measured, label by label, to the microsecond the counter keeps
+    assert set(measured) == {"ingest", "bank", "gating", "telemetry"}
+    by_label = stage_cpu_by_label(counts)
+    assert set(by_label) == set(measured)
+    for label, (runs, cpu) in measured.items():
+        assert runs > 100 and abs(by_label[label] - cpu) <= 0.5e-6
+    assert sum(by_label.values()) == pytest.approx(core.executive.stats.cpu_measured_s, abs=4 * 0.5e-6)
+    # the bank's stage costs more than the ingest's no-op
+    assert by_label["bank"] > 10 * by_label["ingest"]
+    status = m.RunStatus(t_s=1.0, timestamp=m.Stamp(1, 0), run_id="r", source="fsw", state="end-of-run", counts=counts)
+    n = core.bank.processed_count
+    per = stage_us_per_measurement([json.loads(codec.to_json(status))], n)
+    assert per == pytest.approx({k: v / n * 1e6 for k, v in by_label.items()})
+    assert stage_us_per_measurement([status], n) == per and stage_us_per_measurement([], n) == {}
+    work, _ = _flown_core("work-units")
+    assert not any(key.startswith(STAGE_CPU_PREFIX) for key in work.status_counts())
+
+
+def test_the_stage_split_compares_label_by_label():
+    from tools.bench.navrun import stage_split
+
+    split = stage_split({"bank": 2.4, "gating": 0.9, "rqp": 0.1}, {"bank": 80.0, "gating": 25.0}, 30000)
+    assert split["core_stage_cpu_by_label_s"] == pytest.approx({"bank": 2.4, "gating": 0.75})
+    # a label the core alone did not run has no ratio
+    assert split["stage_cpu_ratio_by_label"] == pytest.approx({"bank": 1.0, "gating": 1.2})
+    assert stage_split(None, {"bank": 1.0}, 10)["stage_cpu_ratio_by_label"] is None
+    assert stage_split({"bank": 1.0}, None, 10) == {"fsw_stage_cpu_by_label_s": {"bank": 1.0},
+                                                    "core_stage_cpu_by_label_s": None, "stage_cpu_ratio_by_label": None}
+
+
 def test_the_fsw_process_cpu_split_adds_up():
     from tools.bench.navrun import cpu_split
 
@@ -268,7 +306,9 @@ def test_navbank_run_rows_split_the_fsw_process_cpu():
     from tools.bench.core import scenario
     from tools.bench.navrun import navrun_rows
 
-    rows = {r["name"]: r for r in navrun_rows(scenario(0.5), 1, core_cpu_us=100.0, core_stage_cpu_us=80.0)}
+    rows = {r["name"]: r for r in navrun_rows(scenario(0.5), 1, core_cpu_us=100.0, core_stage_cpu_us=80.0,
+                                              core_stage_us={"ingest": 1.0, "bank": 60.0, "gating": 16.0,
+                                                             "telemetry": 3.0})}
     assert set(rows) == {"budget-overruns-navbank-run", "navbank-run-wall", "navbank-run-fsw-cpu"}
     cpu = rows["navbank-run-fsw-cpu"]
     assert not cpu.get("skipped"), cpu
@@ -280,3 +320,9 @@ def test_navbank_run_rows_split_the_fsw_process_cpu():
     assert cpu["fsw_startup_cpu_s"] is not None and cpu["fsw_other_cpu_s"] is not None
     assert cpu["fsw_startup_cpu_s"] + cpu["fsw_stage_cpu_s"] + cpu["fsw_other_cpu_s"] == pytest.approx(cpu["ours"])
     assert cpu["stage_cpu_ratio"] == pytest.approx(cpu["fsw_stage_cpu_s"] / cpu["core_stage_cpu_s"])
+    # label by label, from the FSW's end-of-run status: they add up to the budget reports' total
+    by_label = cpu["fsw_stage_cpu_by_label_s"]
+    assert set(by_label) == {"ingest", "bank", "gating", "telemetry"}
+    assert sum(by_label.values()) == pytest.approx(cpu["fsw_stage_cpu_s"], abs=1e-3)
+    assert cpu["core_stage_cpu_by_label_s"]["bank"] == pytest.approx(60e-6 * n, abs=1e-4)
+    assert set(cpu["stage_cpu_ratio_by_label"]) == set(by_label)

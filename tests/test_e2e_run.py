@@ -96,6 +96,15 @@ def test_summary_is_consistent_with_the_mcap(short_run):
     budget = [r.message for r in read_messages(out / "run.mcap", topics=["/fsw/budget"])]
     assert summary["budget"]["overruns"] == max(b.overruns for b in budget)
     assert summary["budget"]["final_backlog"] == budget[-1].backlog == 0
+    if summary["budget"]["mode"] == "cpu":
+        # where the FSW's CPU went, stage by stage: its end-of-run status's counts per measurement
+        status = [r.message for r in read_messages(out / "run.mcap", topics=["/fsw/status"])][-1]
+        processed = status.counts["processed"]
+        assert summary["budget"]["stage_cpu_us"] == pytest.approx(
+            {k.removeprefix("stage_cpu_us_"): v / processed for k, v in status.counts.items()
+             if k.startswith("stage_cpu_us_")})
+    else:  # work units say nothing of the host's CPU
+        assert summary["budget"]["stage_cpu_us"] is None
 
 
 def _children(pid: int) -> list[int]:

@@ -55,6 +55,28 @@ def test_a_clock_that_misbehaves_charges_nothing():
     assert report.used == 0.75 and ex.stats.cpu_measured_s == 0.375
 
 
+def test_the_cpu_of_each_stage_label_is_what_its_stages_measured():
+    """Per label: the stages run and the CPU measured in them, cold first runs included,
+    unscaled; a misbehaving clock reading adds nothing; work units know no CPU."""
+    clock = FakeClock()
+    cfg = BudgetConfig(mode="cpu", cpu_budget_s=10.0, cpu_scale=3.0)
+    ex = FrameExecutive(cfg, clock=clock)
+    for k in range(4):
+        ex.submit(Job(t=float(k), stages=(Stage("primary", clock.burn(0.25)), Stage("gating", clock.burn(0.125)),
+                                          Stage("telemetry", clock.burn(0.0625 * k)))))
+        ex.run_frame(float(k) + 0.5)
+    assert ex.stage_cpu() == {"primary": (4, 1.0), "gating": (4, 0.5), "telemetry": (4, 0.375)}
+    assert sum(cpu for _, cpu in ex.stage_cpu().values()) == ex.stats.cpu_measured_s
+
+    def backwards():
+        clock.now -= 1.0
+
+    ex.submit(Job(t=10.0, stages=(Stage("gating", backwards),)))
+    ex.run_frame(10.5)
+    assert ex.stage_cpu()["gating"] == (5, 0.5)
+    assert FrameExecutive(BudgetConfig(mode="work-units")).stage_cpu() == {}
+
+
 def test_admission_learns_the_cost_and_stops_overrunning():
     """Stages of 3 ms against a 10 ms budget: once the cost is learned, exactly 3 run per frame
     (a 4th would need 12 ms) and no frame overruns."""

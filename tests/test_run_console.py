@@ -5,6 +5,8 @@ from __future__ import annotations
 import io
 import json
 
+import pytest
+
 from ground.report.summary_types import RunSummary
 from test_summary_types import RUN_SUMMARY
 from tools.progress import advance_to, fsw_progress, progress_bar
@@ -28,6 +30,28 @@ def test_summary_shows_final_error_and_3sigma_and_says_what_combined_and_best_ar
     combined, best = lines[start + 4:start + 6]
     assert "combined = the gating-weighted sum" in combined and "chi2" in combined
     assert "best = the filter navigated on" in best and "until an anomaly is declared" in best
+
+
+def test_summary_says_where_the_fsw_cpu_went_stage_by_stage():
+    # a run in budget mode cpu: the FSW's last status counts each stage label's CPU; the summary
+    # gives it per processed measurement, largest first, and the console prints it
+    from fsw.interface import topics
+    from tools.bench.core import scenario
+    from tools.inprocess import run_in_process
+
+    run = run_in_process(scenario(0.25), 1)
+    status = run.topic(topics.FSW_STATUS)[-1]
+    processed = status.counts["processed"]
+    stages = run.summary.budget.stage_cpu_us
+    assert run.summary.budget.mode == "cpu" and processed > 100
+    assert list(stages) == sorted(stages, key=lambda k: -stages[k]) and list(stages)[0] == "bank"
+    assert stages == pytest.approx({k: status.counts[f"stage_cpu_us_{k}"] / processed for k in stages}, rel=1e-12)
+    line = next(ln for ln in describe(run.summary).splitlines() if "CPU per measurement by stage" in ln)
+    assert f"bank {stages['bank']:.1f} µs" in line and "gating" in line
+    assert RunSummary.from_json(json.loads(json.dumps(run.summary.to_json()))).budget.stage_cpu_us == stages
+    # work units say nothing of the host's CPU: no line
+    assert _summary().budget.stage_cpu_us is None
+    assert not any("CPU per measurement" in ln for ln in describe(_summary()).splitlines())
 
 
 def test_fsw_progress_line_is_read_from_the_fsw_own_format():

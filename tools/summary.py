@@ -61,6 +61,9 @@ def describe(summary: RunSummary) -> str:
     b = s.budget
     lines.append(f"budget ({b.mode}): {b.frames} frames, max utilisation {b.max_utilisation:.2f}, "
                  f"{b.overruns} overruns, max backlog {b.max_backlog}, final backlog {b.final_backlog}")
+    if b.stage_cpu_us:
+        lines.append("  CPU per measurement by stage: "
+                     + ", ".join(f"{label} {us:.1f} µs" for label, us in b.stage_cpu_us.items()))
     if s.commands:
         # a commanded run says so: a command can change what every line above reports
         changed = [c for c in s.commands if c.ok and c.command != "status"]

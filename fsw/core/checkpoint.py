@@ -51,11 +51,12 @@ from fsw.interface.messages import SCHEMA_VERSION, RunStatus
 
 FORMAT = "navbank-fsw-checkpoint"
 #: Bumped whenever what is pickled changes shape: an older file is refused, not misread.
-VERSION = 8  # 8: the core and the objects it runs per measurement are slotted (their pickles carry slots, not
-# instance dictionaries); 7: the filter stack keeps the drivers' columns for the compiled steps;
-# 6: the telemetry not yet published; 5: the filter stack keeps work arrays for range predictions;
-# 4: the ephemeris environment pickles its table span and station nodes compactly; 3: the core
-# holds the residuals of the current batch and the B-plane cadence
+VERSION = 9  # 9: the CPU meter keeps each stage label's measured CPU; 8: the core and the objects
+# it runs per measurement are slotted (their pickles carry slots, not instance dictionaries); 7: the
+# filter stack keeps the drivers' columns for the compiled steps; 6: the telemetry not yet
+# published; 5: the filter stack keeps work arrays for range predictions; 4: the ephemeris
+# environment pickles its table span and station nodes compactly; 3: the core holds the residuals of
+# the current batch and the B-plane cadence
 #: The header line is read before anything else; a longer one is not a checkpoint.
 MAX_HEADER_BYTES = 4096
 

@@ -16,6 +16,9 @@ from fsw.executive import FrameExecutive
 from fsw.filters.bank import FilterBank
 from fsw.ingest import SequenceGuard
 
+#: Key prefix of a status counter holding a stage label's measured CPU in microseconds (mode cpu).
+STAGE_CPU_PREFIX = "stage_cpu_us_"
+
 #: Counters a driver adds to the core's own (e.g. refused topics, transport gaps).
 ExtraCounters = Callable[[], dict[str, int]]
 
@@ -34,7 +37,8 @@ class CoreCounters:
 def status_counts(counters: CoreCounters, guard: SequenceGuard, bank: FilterBank, executive: FrameExecutive,
                   extra: ExtraCounters | None = None) -> dict[str, int]:
     """The counters of a ``RunStatus``: intake, bank rejections by reason, processing, errors,
-    telecommands, backlog; ``rejected`` totals every measurement not processed for a reason."""
+    telecommands, backlog, the CPU of each stage label (budget mode cpu); ``rejected`` totals
+    every measurement not processed for a reason."""
     c = guard.counters.as_dict()
     c["decode_errors"] = counters.decode_errors
     c["bank_rejected"] = sum(counters.bank_rejected.values())
@@ -50,6 +54,16 @@ def status_counts(counters: CoreCounters, guard: SequenceGuard, bank: FilterBank
     c["pending"] = int(executive.pending_jobs)  # queued, due or not yet due
     c["rejected"] = c.get("rejected", 0) + c["decode_errors"] + c["bank_rejected"]
     c.update(bank.adaptive_counts())  # FLR LPs, failures, fallbacks, CPU (only with adaptive filters)
+    # budget mode cpu: the thread CPU measured in each stage label so far, in whole microseconds
+    # (where the core's CPU goes, stage by stage; nothing in mode work-units)
+    for label, (_, cpu_s) in executive.stage_cpu().items():
+        c[STAGE_CPU_PREFIX + label] = int(round(cpu_s * 1e6))
     if extra is not None:
         c.update(extra())
     return c
+
+
+def stage_cpu_by_label(counts: dict[str, int]) -> dict[str, float]:
+    """CPU seconds per stage label from a ``RunStatus``'s counts (empty if the run measured none)."""
+    n = len(STAGE_CPU_PREFIX)
+    return {key[n:]: value * 1e-6 for key, value in counts.items() if key.startswith(STAGE_CPU_PREFIX)}

@@ -363,6 +363,11 @@ class FrameExecutive:
         """Time tag of the newest job whose stage in each lane has run: how current each lane is."""
         return dict(self._lane_progress)
 
+    def stage_cpu(self) -> dict[str, tuple[int, float]]:
+        """Mode ``cpu``: (stages run, thread CPU seconds measured in them) per stage label; empty
+        in mode ``work-units`` (declared costs say nothing of the host's CPU)."""
+        return self._meter.cpu_by_label() if isinstance(self._meter, CpuMeter) else {}
+
     def cost_estimates(self) -> dict[str, tuple[float, float]]:
         """Mode ``cpu``: (mean, mean absolute deviation) of charged cost per stage label."""
         return self._meter.estimates() if isinstance(self._meter, CpuMeter) else {}

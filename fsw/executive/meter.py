@@ -39,10 +39,12 @@ class WorkUnitMeter:
 class _LabelCost:
     """The running estimate of one stage label's charged cost."""
 
-    __slots__ = ("seen", "mean", "dev", "predicted")
+    __slots__ = ("seen", "mean", "dev", "predicted", "cpu_s")
 
     def __init__(self) -> None:
         self.seen = 0
+        #: thread CPU seconds measured in this label's stages so far (every run, cold ones too)
+        self.cpu_s = 0.0
         self.mean: float | None = None  # None until a sample past the cold start seeds it
         self.dev = 0.0
         #: mean + margin × dev, made when they change (asked before every stage, changed after one)
@@ -98,6 +100,7 @@ class CpuMeter:
             rec = self._costs[stage.label] = _LabelCost()
         seen = rec.seen
         rec.seen = seen + 1
+        rec.cpu_s += measured_s
         if seen < self.COLD_START_SAMPLES:
             return cost
         mean = rec.mean
@@ -114,6 +117,11 @@ class CpuMeter:
             rec.dev = dev = dev + gain * (abs(err) - dev)
         rec.predicted = mean + self._margin * dev
         return cost
+
+    def cpu_by_label(self) -> dict[str, tuple[int, float]]:
+        """(stages run, thread CPU seconds measured in them) per stage label, in the order the
+        labels first ran: where the core's CPU went, stage by stage."""
+        return {label: (rec.seen, rec.cpu_s) for label, rec in self._costs.items()}
 
     def estimates(self) -> dict[str, tuple[float, float]]:
         """(mean, mean absolute deviation) of the charged cost per stage label."""

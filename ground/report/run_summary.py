@@ -15,6 +15,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from fsw.core.counters import stage_cpu_by_label
 from fsw.interface import messages as m, topics
 from ground.report.nav_data import bplane_final, bplane_traces, nis_statistics, residual_traces
 from ground.report.run_facts import anomaly_summary
@@ -37,6 +38,15 @@ def _command_entry(c: m.CommandRecord, t0: float) -> CommandEntry:
                         ok=c.reply.ok, error=c.reply.error, network=tc.network if tc else None,
                         filter=tc.filter if tc else None, param=tc.param if tc else None,
                         value=tc.value if tc else None)
+
+
+def _stage_cpu_us(counts: dict[str, int]) -> dict[str, float] | None:
+    """CPU µs per processed measurement of each stage label (budget mode cpu), largest first."""
+    by_label = stage_cpu_by_label(counts)
+    processed = counts.get("processed", 0)
+    if not by_label or processed <= 0:
+        return None
+    return {label: cpu / processed * 1e6 for label, cpu in sorted(by_label.items(), key=lambda kv: -kv[1])}
 
 
 def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, fault: str | None,
@@ -111,6 +121,7 @@ def summarize(messages: Iterable[tuple[str, Any]], *, scenario: str, seed: int, 
         final_backlog=budget_msgs[-1].backlog if budget_msgs else 0,
         errors=max((b.errors for b in budget_msgs), default=0),
         mode=budget_msgs[-1].mode if budget_msgs else None,
+        stage_cpu_us=_stage_cpu_us(counts),
     )
 
     lost_count = counts.get("lost", 0) if lost is None else lost

@@ -173,6 +173,8 @@ class MonitorBlock:
 class BudgetBlock(JsonRecord):
     """The frame executive over the run (from its BudgetReports)."""
 
+    _omit_when_none: ClassVar[frozenset[str]] = frozenset({"stage_cpu_us"})
+
     frames: int = spec(doc="frames run")
     reports: int = spec(doc="BudgetReports received")
     overruns: int = spec(doc="items that exceeded the remaining budget")
@@ -182,6 +184,9 @@ class BudgetBlock(JsonRecord):
     final_backlog: int = spec(doc="backlog at the last frame end")
     errors: int = spec(doc="work items that raised")
     mode: str | None = spec(doc="budget accounting mode, None without reports")
+    stage_cpu_us: dict[str, float] | None = spec(
+        None, doc="budget mode cpu: CPU per processed measurement spent in each stage label, from the FSW's last "
+                  "RunStatus (where the FSW core's CPU goes); None in mode work-units or without a status", unit="us")
 
 
 @dataclass(frozen=True)

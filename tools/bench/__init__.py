@@ -102,7 +102,8 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
         # the reference is the 45-day in-process core: a shorter arc's CPU per measurement differs
         whole = fig if not quick else core.fly(None, repeats=1)
         stage_us = None if whole.stage_cpu_s is None else whole.stage_cpu_s / whole.measurements * 1e6
-        for row in navrun_rows(core.scenario(), 1, whole.fsw_cpu_s / whole.measurements * 1e6, stage_us):
+        for row in navrun_rows(core.scenario(), 1, whole.fsw_cpu_s / whole.measurements * 1e6, stage_us,
+                               whole.stage_us):
             emit(row)
     return rows
 

@@ -23,6 +23,9 @@ shared with the simulator, the logger and Zenoh's threads (caches, memory, a 2-c
 scheduler). ``fsw_other_cpu_s`` is the process's CPU outside start-up and stages — transport
 (receive, decode, encode, publish), checkpoints, and the core's work between stages (executive
 bookkeeping, per-frame telemetry) — against ``core_other_cpu_s``, the last of these alone.
+The stages are also compared label by label (``fsw_stage_cpu_by_label_s``,
+``core_stage_cpu_by_label_s``, ``stage_cpu_ratio_by_label``: the FSW's end-of-run status counts
+each label's CPU).
 
 All three always fly the whole default scenario (45 days), ``--quick`` or not: a run's process start
 is a fixed cost, which no scaling of a shorter run would show.
@@ -46,6 +49,7 @@ from typing import Any
 from fsw.interface import topics
 from fsw.transport.session import free_tcp_ports
 from ground.mcap_io.reader import McapReadError, read_messages
+from fsw.core.counters import stage_cpu_by_label
 from tools.bench.core import OVERRUN_GOAL, stage_cpu_s
 from tools.bench.rows import Goal, make_row, skipped_row
 from tools.scenario import ScenarioConfig, to_yaml
@@ -158,25 +162,30 @@ def run_three_processes(cfg: ScenarioConfig, seed: int, timeout_s: float = 900.0
             budget = {k: summary["budget"][k] for k in ("overruns", "frames", "max_utilisation", "mode")}
         except (OSError, ValueError, KeyError, TypeError):
             published, budget = 0, {}
-        stages = None
+        stages, by_label = None, None
         try:
             if proc.returncode == 0:
-                reports = read_messages(Path(tmp) / "run" / "run.mcap", topics.FSW_BUDGET)
+                mcap = Path(tmp) / "run" / "run.mcap"
+                reports = read_messages(mcap, topics.FSW_BUDGET)
                 stages = stage_cpu_s((lm.message for lm in reports), cfg.fsw.budget.cpu_scale)
+                statuses = [lm.message for lm in read_messages(mcap, topics.FSW_STATUS) if lm.message is not None]
+                by_label = stage_cpu_by_label(statuses[-1].counts) if statuses else None
         except (OSError, McapReadError):
-            stages = None
+            stages, by_label = None, None
         # the run's own resolved configuration (seed and a-priori state fixed), as its FSW read it
         resolved = Path(tmp) / "run" / "config.yaml"
         startup = fsw_startup_cpu(resolved) if proc.returncode == 0 and resolved.is_file() else None
     return {"wall_s": wall, "cpu_s": cpu, "returncode": proc.returncode, "stderr_tail": (err or "")[-400:],
-            "measurements": published, "budget": budget, "fsw_startup_cpu_s": startup, "fsw_stage_cpu_s": stages}
+            "measurements": published, "budget": budget, "fsw_startup_cpu_s": startup, "fsw_stage_cpu_s": stages,
+            "fsw_stage_cpu_by_label_s": by_label or None}
 
 
-def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float,
-                core_stage_cpu_us: float | None = None) -> list[dict[str, Any]]:
+def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float, core_stage_cpu_us: float | None = None,
+                core_stage_us: dict[str, float] | None = None) -> list[dict[str, Any]]:
     """The rows; ``core_cpu_us`` is the in-process FSW core's CPU per measurement for the same
     scenario (:mod:`tools.bench.core`, possibly over a shorter arc: the reference is that figure
-    times the run's measurements), ``core_stage_cpu_us`` the part of it inside its stages."""
+    times the run's measurements), ``core_stage_cpu_us`` the part of it inside its stages and
+    ``core_stage_us`` that part per stage label."""
     if not Path("/proc/self/stat").exists():
         return [skipped_row("navbank-run-wall", "s wall", WALL_GOAL, "needs /proc"),
                 skipped_row("navbank-run-fsw-cpu", "s CPU", CPU_GOAL, "needs /proc")]
@@ -203,7 +212,8 @@ def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float,
                  "FSW process CPU / the same FSW core's CPU in process (<= 1.3)", core_cpu_us=core_cpu_us,
                  fsw_startup_cpu_s=startup,
                  ratio_after_startup=None if startup is None or core_cpu_s <= 0.0 else (fsw_cpu - startup) / core_cpu_s,
-                 **split, **common),
+                 **split, **stage_split(res["fsw_stage_cpu_by_label_s"], core_stage_us, res["measurements"]),
+                 **common),
     ]
 
 
@@ -221,4 +231,23 @@ def cpu_split(fsw_cpu_s: float, startup_s: float | None, fsw_stage_s: float | No
     }
 
 
-__all__ = ["cpu_split", "fsw_startup_cpu", "navrun_rows", "run_three_processes"]
+def stage_split(fsw_by_label_s: dict[str, float] | None, core_us: dict[str, float] | None,
+                measurements: int) -> dict[str, dict[str, float] | None]:
+    """The stages' CPU label by label: in the process (seconds), the core's alone scaled to the
+    run's measurements (seconds), and their quotient — which stages the shared machine slows."""
+    core_s = None if core_us is None else {k: v * 1e-6 * measurements for k, v in core_us.items()}
+    ratio = None
+    if fsw_by_label_s and core_s:
+        ratio = {k: round(v / core_s[k], 3) for k, v in fsw_by_label_s.items() if core_s.get(k)}
+    return {
+        "fsw_stage_cpu_by_label_s": _rounded(fsw_by_label_s),
+        "core_stage_cpu_by_label_s": _rounded(core_s),
+        "stage_cpu_ratio_by_label": ratio,
+    }
+
+
+def _rounded(seconds: dict[str, float] | None) -> dict[str, float] | None:
+    return None if seconds is None else {k: round(v, 4) for k, v in seconds.items()}
+
+
+__all__ = ["cpu_split", "stage_split", "fsw_startup_cpu", "navrun_rows", "run_three_processes"]
