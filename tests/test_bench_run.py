@@ -79,6 +79,14 @@ def test_core_rows_from_fake_timings():
     fast = {r["name"]: r for r in core_rows(_figures(fsw_cpu_s=0.05, wall_s=2.0, overruns=1))}
     assert fast["fsw-core-cpu"]["met"] is True and fast["inprocess-45day-wall"]["met"] is True
     assert fast["budget-overruns"]["met"] is False and "extrapolated_from_measurements" not in fast["inprocess-45day-wall"]
+    # where the CPU goes: per stage label, and what is left outside the stages (500 - 400 us)
+    split = {r["name"]: r for r in core_rows(_figures(stage_us={"gating": 100.0, "bank": 300.0}))}["fsw-core-cpu"]
+    assert split["stage_us_per_measurement"] == {"gating": 100.0, "bank": 300.0}
+    assert split["outside_stages_us_per_measurement"] == pytest.approx(100.0)
+    first, second = text_line(split).splitlines()
+    assert first.startswith("fsw-core-cpu") and second.strip() == (
+        "CPU per measurement by stage (us): bank 300.0, gating 100.0, outside the stages 100.0")
+    assert core["stage_us_per_measurement"] is None and "\n" not in text_line(core)
 
 
 def test_kalman_flops_counts_the_dense_bank_arithmetic():

@@ -66,13 +66,22 @@ def skipped_row(name: str, unit: str, goal: Goal, reason: str) -> dict[str, Any]
 
 
 def text_line(row: dict[str, Any]) -> str:
-    """One human-readable line of a row."""
+    """One human-readable line of a row (and, for a per-measurement cost split by stage, a second
+    line with the split)."""
     if row.get("skipped"):
         return f"{row['name']:<28} skipped: {row['skipped']}"
     verdict = "met" if row["met"] else "NOT met"
     ratio = "-" if row["ratio"] is None else f"{row['ratio']:.3g}"
-    return (f"{row['name']:<28} ours {row['ours']:12.4g} {row['unit']:<16} reference {row['reference']:12.4g}"
+    line = (f"{row['name']:<28} ours {row['ours']:12.4g} {row['unit']:<16} reference {row['reference']:12.4g}"
             f"   ratio {ratio:>8}  goal {row['goal']:<12} {verdict:<8} ({row['meaning']})")
+    stages = row.get("stage_us_per_measurement")
+    if stages:
+        # where a per-measurement cost goes, stage by stage, is what one acts on
+        parts = [f"{label} {us:.1f}" for label, us in sorted(stages.items(), key=lambda kv: -kv[1])]
+        if row.get("outside_stages_us_per_measurement") is not None:
+            parts.append(f"outside the stages {row['outside_stages_us_per_measurement']:.1f}")
+        line += "\n" + " " * 4 + "CPU per measurement by stage (us): " + ", ".join(parts)
+    return line
 
 
 __all__ = ["Goal", "make_row", "skipped_row", "text_line"]
