@@ -136,6 +136,8 @@ def run_fsw(
                         core.ingest_payload(got.payload)
                         if schedule.due(core.taken, core.t_last):
                             save()
+                        if outbox.full:
+                            outbox.flush()  # here, between measurements: outside the core's stages
                     elif got.topic != topics.SIM_STATUS:
                         refused += 1  # truth or anything else is never let in
                 elif sub.finished([producer]):

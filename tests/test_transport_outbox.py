@@ -18,13 +18,44 @@ def test_messages_go_out_in_the_order_emitted_when_flushed():
     assert box.pending == 0 and box.flush() == 0 and box.flushes == 1
 
 
-def test_the_limit_bounds_what_is_held():
-    out: list[tuple[str, object]] = []
-    box = Outbox(lambda t, m: out.append((t, m)), limit=4)
+def test_a_put_only_holds_and_full_says_when_to_flush():
+    # publishing is the driver's, between measurements: a put never publishes, whatever is held
+    out: list[object] = []
+    flushing = [False]
+
+    def publish(topic: str, msg: object) -> None:
+        assert flushing[0], "a put published"
+        out.append(msg)
+
+    box = Outbox(publish, limit=4)
     for i in range(10):
         box.put("fsw/budget", i)
-        assert box.pending < 4
-    assert [m for _, m in out] == list(range(8)) and box.pending == 2
+        assert box.full == (i >= 3)
+    assert box.pending == 10 and box.flushes == 0 and out == []
+    flushing[0] = True
+    assert box.flush() == 10 and out == list(range(10)) and not box.full
+
+
+def test_a_core_emitting_into_an_outbox_publishes_nothing_by_itself():
+    # the core's stages emit into the outbox; none of its calls publishes (a put inside a stage
+    # would charge publishing to that stage's flight budget)
+    from fsw.core import FswCore
+    from fsw.interface import messages as m
+    from sim.stream import generate
+    from tools.scenario import load_text_scenario, resolve
+
+    cfg, seed = resolve(load_text_scenario("name: s\nsim:\n  trajectory: {span_days: 0.25}\n"))
+    published: list[tuple[str, object]] = []
+    box = Outbox(lambda t, msg: published.append((t, msg)), limit=8)
+    core = FswCore(cfg.fsw, box.put, run_id="r")
+    core.start()
+    for msg in generate(cfg.sim, seed=seed).measurements[:200]:
+        assert isinstance(msg, m.Measurement)
+        core.ingest(msg)
+    assert published == [] and box.full and box.pending > 200
+    held = box.held()
+    box.flush()
+    assert published == held
 
 
 def test_a_put_that_fails_keeps_it_and_what_follows_held():

@@ -8,10 +8,17 @@ each, published one at a time as the core emitted them.
 
 So the FSW process hands its core an :class:`Outbox`: what the core emits is queued while
 measurements are waiting to be taken, and published, in the order emitted, when the input runs
-dry, when ``limit`` messages are held, and before anything that must find them published (the
-end-of-run confirmation counts what arrived, a stop). Nothing is dropped or reordered, and with
-the input idle a message waits no longer than it did; under a burst the ground hears of it at
-most ``limit`` messages late.
+dry, once ``limit`` messages are held (:attr:`full`), and before anything that must find them
+published (the end-of-run confirmation counts what arrived, a stop). Nothing is dropped or
+reordered, and with the input idle a message waits no longer than it did; under a burst the
+ground hears of it at most ``limit`` messages, and one measurement's, late.
+
+:meth:`put` only holds: the FSW process publishes between measurements, never from inside the
+core's call that emitted the message. A put flushing at the limit itself ran the burst of ~256
+puts inside whichever pipeline stage emitted the 256th message, most often the gating stage (it
+emits a FilterWeights per measurement): publishing charged to the stage's flight budget and CPU
+— 34 µs per measurement measured for the gating stage in ``navbank run`` against 23 µs for the
+same core in process.
 
 A checkpoint takes what is held (:meth:`held`) rather than publishing it first: a put hands the
 message to Zenoh, which sends it from its own thread, so a burst put just before a checkpoint
@@ -36,10 +43,13 @@ class Outbox:
         self.flushes = 0
 
     def put(self, topic: str, msg: object) -> None:
-        """Hold ``msg`` for ``topic``; publishes everything held once ``limit`` messages are."""
+        """Hold ``msg`` for ``topic`` (published by the next :meth:`flush`)."""
         self._held.append((topic, msg))
-        if len(self._held) >= self.limit:
-            self.flush()
+
+    @property
+    def full(self) -> bool:
+        """``limit`` messages or more are held: time to :meth:`flush`."""
+        return len(self._held) >= self.limit
 
     def flush(self) -> int:
         """Publish everything held, oldest first; returns how many. A put that raises leaves it
