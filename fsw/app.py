@@ -4,9 +4,10 @@ Subscribes to measurements and the simulator's status only — never to truth: t
 names exactly those two topics, and any sample on another topic is refused and counted. Raw
 measurement payloads go to :class:`fsw.core.FswCore`, which decodes them strictly (malformed ones
 are counted, never fatal), re-orders within a window, and runs the bank, gating and detector
-under the frame executive. Telemetry is published in runs, once no measurement is waiting
-(:mod:`fsw.transport.outbox`); telecommands are served between measurements on this thread (no
-locking of the core needed).
+under the frame executive. Telemetry is published in runs, between measurements, once no
+measurement is waiting or the outbox is full (:mod:`fsw.transport.outbox`): never inside a
+pipeline stage; telecommands are served between measurements on this thread (no locking of the
+core needed).
 
 The run ends when the simulator's end-of-run status has arrived and every announced measurement
 has been taken: the core drains its backlog, publishes its end-of-run status, and waits for the
