@@ -210,15 +210,20 @@ class FilterBank:
         return float(self.stack.clock_q[i, k])
 
     # -- processing ----------------------------------------------------------------------------
-    def _screen(self, meas: Measurement) -> tuple[np.ndarray, np.ndarray]:
+    def _screen(self, meas: Measurement) -> tuple[np.ndarray, np.ndarray, float, KindModel]:
+        """(value, sigma, time tag, the kind's model) of a measurement the bank can use, else
+        :class:`MeasurementRejected`."""
         value, sigma = screen(meas, kinds.DIMENSIONS)
         t = float(meas.t_s)
-        if t < self.t - self.TIME_TOLERANCE_S:
-            raise MeasurementRejected("out_of_order", f"time tag {t} is before the bank epoch {self.t}")
-        if not self.stack.env.covers(t):
+        stack = self.stack
+        if t < stack.t - self.TIME_TOLERANCE_S:
+            raise MeasurementRejected("out_of_order", f"time tag {t} is before the bank epoch {stack.t}")
+        env = stack.env
+        if not env.covers(t):
             raise MeasurementRejected("out_of_range", f"time tag {t} is outside the onboard ephemeris")
-        kinds.model(meas.kind).screen(meas, self.stack.env)
-        return value, sigma
+        model = kinds.REGISTRY[meas.kind]  # screen() accepted the kind: the bank has its model
+        model.screen(meas, env)
+        return value, sigma, t, model
 
     def predict(self, meas: Measurement, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """h (N, m) and H (N, m, n) of a (screened) measurement at the current bank epoch."""
@@ -229,22 +234,22 @@ class FilterBank:
         """Propagate to the measurement, predict it with every filter, update the filters
         that process its kind, and return the record for the gating networks."""
         try:
-            value, sigma = self._screen(meas)
+            value, sigma, t, model = self._screen(meas)
         except MeasurementRejected as exc:
             self.rejected[exc.reason] += 1
             raise
         kind = meas.kind
-        model = kinds.model(kind)
-        t1 = max(float(meas.t_s), self.t)
+        stack = self.stack
+        t1 = t if t > stack.t else stack.t
         does = self._process_masks[kind] & self.active
-        done = model.step(self.stack, meas, t1, value, sigma, self._sigma_scale[kind], does, self._gate)
+        done = model.step(stack, meas, t1, value, sigma, self._sigma_scale[kind], does, self._gate)
         if done is None:
             residual, S, chi2, processed = self._steps(meas, model, t1, value, sigma, does)
         else:
             residual, S, chi2, processed = done
         self.processed_count += 1
         # by position (BankRecord's field order), one record per measurement
-        return BankRecord(float(meas.t_s), int(meas.seq), str(kind), self.names, residual, S, chi2, processed.copy(),
+        return BankRecord(t, int(meas.seq), str(kind), self.names, residual, S, chi2, processed.copy(),
                           self.active.copy())
 
     def _steps(self, meas: Measurement, model: KindModel, t1: float, value: np.ndarray, sigma: np.ndarray,
