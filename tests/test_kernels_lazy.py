@@ -84,3 +84,22 @@ def test_the_fsw_loads_scipy_optimize_only_for_an_adaptation(tmp_path):
     assert "numba" in plain and "scipy.optimize" not in plain
     assert "scipy.optimize" in modules("insight-approach", rqp=True)
     assert "scipy.optimize" in modules("leo-injection", rqp=False)  # its filters adapt their process noise
+
+
+def test_summarising_a_recorded_run_imports_no_compiler(tmp_path):
+    """``navbank run`` writes its summary once its processes have ended, on the critical path of
+    its wall time: reading the recording must load neither the FSW's kernels (numba and the cached
+    kernels cost ~0.7 s there) nor a solver."""
+    import shutil
+
+    shutil.copy(ROOT / "tests" / "golden" / "insight-4day.mcap", tmp_path / "run.mcap")
+    code = ("import sys\nfrom pathlib import Path\nfrom tools.scenario import load_scenario, resolve\n"
+            f"cfg, seed = resolve(load_scenario({str(ROOT / 'tests' / 'golden' / 'insight-4day.yaml')!r}), 1)\n"
+            f"before = set(sys.modules)\n"
+            "from tools.commands.run import _summary\n"
+            f"s = _summary(cfg, seed, 'golden', Path({str(tmp_path)!r}), None, 1.0, 'complete')\n"
+            "print(s.measurements.processed > 0)\n"
+            f"print(sorted(m for m in {HEAVY!r} if m in set(sys.modules) - before))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["True", "[]"]

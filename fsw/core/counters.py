@@ -10,11 +10,12 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
-from fsw.executive import FrameExecutive
-from fsw.filters.bank import FilterBank
-from fsw.ingest import SequenceGuard
+if TYPE_CHECKING:  # annotations only: the ground reads the status keys below without the bank's kernels
+    from fsw.executive import FrameExecutive
+    from fsw.filters.bank import FilterBank
+    from fsw.ingest import SequenceGuard
 
 #: Key prefix of a status counter holding a stage label's measured CPU in microseconds (mode cpu).
 STAGE_CPU_PREFIX = "stage_cpu_us_"
