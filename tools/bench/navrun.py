@@ -136,54 +136,62 @@ def fsw_startup_cpu(config: Path, timeout_s: float = 60.0) -> float | None:
             proc.wait(timeout=10.0)
 
 
-def run_three_processes(cfg: ScenarioConfig, seed: int, timeout_s: float = 900.0) -> dict[str, Any]:
-    """Run ``navbank run`` on ``cfg`` and return its wall time and every role's last CPU reading."""
-    with tempfile.TemporaryDirectory(prefix="navbank-bench-run-") as tmp:
-        scen = Path(tmp) / "scenario.yaml"
-        scen.write_text(to_yaml(cfg), encoding="utf-8")
-        cmd = [sys.executable, "-m", "tools.cli", "run", "--scenario", str(scen), "--seed", str(seed),
-               "--out", str(Path(tmp) / "run"), "--quiet", "--timeout", str(timeout_s)]
-        t0 = time.perf_counter()
-        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        cpu: dict[str, float] = {}
-        try:
-            while proc.poll() is None:
-                for child in _children(proc.pid):
-                    role, c = _role(child), _cpu_s(child)
-                    if role is not None and c is not None:
-                        cpu[role] = max(cpu.get(role, 0.0), c)
-                if time.perf_counter() - t0 > timeout_s + 30.0:
-                    proc.kill()
-                    break
-                time.sleep(POLL_S)
-            _, err = proc.communicate(timeout=30.0)
-        finally:
-            if proc.poll() is None:
+def _run(cfg: ScenarioConfig, seed: int, where: Path, timeout_s: float = 900.0) -> dict[str, Any]:
+    """Run ``navbank run`` on ``cfg`` with its output in ``where/run``: its wall time, every role's
+    last CPU reading, its measurements and budget (from its summary.json)."""
+    scen = where / "scenario.yaml"
+    scen.write_text(to_yaml(cfg), encoding="utf-8")
+    cmd = [sys.executable, "-m", "tools.cli", "run", "--scenario", str(scen), "--seed", str(seed),
+           "--out", str(where / "run"), "--quiet", "--timeout", str(timeout_s)]
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    cpu: dict[str, float] = {}
+    try:
+        while proc.poll() is None:
+            for child in _children(proc.pid):
+                role, c = _role(child), _cpu_s(child)
+                if role is not None and c is not None:
+                    cpu[role] = max(cpu.get(role, 0.0), c)
+            if time.perf_counter() - t0 > timeout_s + 30.0:
                 proc.kill()
-                proc.wait(timeout=10.0)
-        wall = time.perf_counter() - t0
-        try:
-            summary = json.loads((Path(tmp) / "run" / "summary.json").read_text())
-            published = int(summary["measurements"]["published"])
-            budget = {k: summary["budget"][k] for k in ("overruns", "frames", "max_utilisation", "mode")}
-        except (OSError, ValueError, KeyError, TypeError):
-            published, budget = 0, {}
-        stages, by_label = None, None
-        try:
-            if proc.returncode == 0:
-                mcap = Path(tmp) / "run" / "run.mcap"
-                reports = read_messages(mcap, topics.FSW_BUDGET)
-                stages = stage_cpu_s((lm.message for lm in reports), cfg.fsw.budget.cpu_scale)
-                statuses = [lm.message for lm in read_messages(mcap, topics.FSW_STATUS) if lm.message is not None]
-                by_label = stage_cpu_by_label(statuses[-1].counts) if statuses else None
-        except (OSError, McapReadError):
-            stages, by_label = None, None
-        # the run's own resolved configuration (seed and a-priori state fixed), as its FSW read it
-        resolved = Path(tmp) / "run" / "config.yaml"
-        startup = fsw_startup_cpu(resolved) if proc.returncode == 0 and resolved.is_file() else None
+                break
+            time.sleep(POLL_S)
+        _, err = proc.communicate(timeout=30.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10.0)
+    wall = time.perf_counter() - t0
+    try:
+        summary = json.loads((where / "run" / "summary.json").read_text())
+        published = int(summary["measurements"]["published"])
+        budget = {k: summary["budget"][k] for k in ("overruns", "frames", "max_utilisation", "mode")}
+    except (OSError, ValueError, KeyError, TypeError):
+        published, budget = 0, {}
     return {"wall_s": wall, "cpu_s": cpu, "returncode": proc.returncode, "stderr_tail": (err or "")[-400:],
-            "measurements": published, "budget": budget, "fsw_startup_cpu_s": startup, "fsw_stage_cpu_s": stages,
-            "fsw_stage_cpu_by_label_s": by_label or None}
+            "measurements": published, "budget": budget, "run_dir": where / "run"}
+
+
+def run_details(res: dict[str, Any], cfg: ScenarioConfig) -> dict[str, Any]:
+    """What the CPU row says of a run (:func:`_run`'s ``res``, its directory still there): the CPU
+    inside the core's stages from its recorded BudgetReports, per label from the FSW's last status,
+    and the CPU of its FSW command's start-up (:func:`fsw_startup_cpu`). Read for one run only:
+    each costs about a second."""
+    run_dir: Path = res["run_dir"]
+    stages, by_label = None, None
+    try:
+        if res["returncode"] == 0:
+            mcap = run_dir / "run.mcap"
+            reports = read_messages(mcap, topics.FSW_BUDGET)
+            stages = stage_cpu_s((lm.message for lm in reports), cfg.fsw.budget.cpu_scale)
+            statuses = [lm.message for lm in read_messages(mcap, topics.FSW_STATUS) if lm.message is not None]
+            by_label = stage_cpu_by_label(statuses[-1].counts) if statuses else None
+    except (OSError, McapReadError):
+        stages, by_label = None, None
+    # the run's own resolved configuration (seed and a-priori state fixed), as its FSW read it
+    resolved = run_dir / "config.yaml"
+    startup = fsw_startup_cpu(resolved) if res["returncode"] == 0 and resolved.is_file() else None
+    return {"fsw_startup_cpu_s": startup, "fsw_stage_cpu_s": stages, "fsw_stage_cpu_by_label_s": by_label or None}
 
 
 def median_run(results: list[dict[str, Any]], key: Callable[[dict[str, Any]], float]) -> dict[str, Any]:
@@ -204,17 +212,20 @@ def navrun_rows(cfg: ScenarioConfig, seed: int, core_cpu_us: float, core_stage_c
         return [skipped_row("navbank-run-wall", "s wall", WALL_GOAL, "needs /proc"),
                 skipped_row("navbank-run-fsw-cpu", "s CPU", CPU_GOAL, "needs /proc")]
     results = []
-    for _ in range(max(runs, 1)):
-        res = run_three_processes(cfg, seed)
-        if res["returncode"] != 0 or not res["measurements"]:
-            reason = f"navbank run exited {res['returncode']}: {res['stderr_tail'].strip().splitlines()[-1:]}"
-            return [skipped_row("navbank-run-wall", "s wall", WALL_GOAL, reason),
-                    skipped_row("navbank-run-fsw-cpu", "s CPU", CPU_GOAL, reason)]
-        results.append(res)
+    with tempfile.TemporaryDirectory(prefix="navbank-bench-run-") as tmp:
+        for k in range(max(runs, 1)):
+            (Path(tmp) / str(k)).mkdir()
+            res = _run(cfg, seed, Path(tmp) / str(k))
+            if res["returncode"] != 0 or not res["measurements"]:
+                reason = f"navbank run exited {res['returncode']}: {res['stderr_tail'].strip().splitlines()[-1:]}"
+                return [skipped_row("navbank-run-wall", "s wall", WALL_GOAL, reason),
+                        skipped_row("navbank-run-fsw-cpu", "s CPU", CPU_GOAL, reason)]
+            results.append(res)
+        walled = median_run(results, lambda r: r["wall_s"])
+        res = median_run(results, lambda r: r["cpu_s"].get("fsw", 0.0))
+        res.update(run_details(res, cfg))  # the CPU row's run only
     every = {"runs": len(results), "wall_s_runs": [round(r["wall_s"], 3) for r in results],
              "fsw_cpu_s_runs": [round(r["cpu_s"].get("fsw", 0.0), 3) for r in results]}
-    walled = median_run(results, lambda r: r["wall_s"])
-    res = median_run(results, lambda r: r["cpu_s"].get("fsw", 0.0))
 
     def common(r: dict[str, Any]) -> dict[str, Any]:
         return {"span_days": cfg.sim.trajectory.span_days, "seed": seed, "measurements": r["measurements"],
@@ -277,4 +288,4 @@ def _rounded(seconds: dict[str, float] | None) -> dict[str, float] | None:
     return None if seconds is None else {k: round(v, 4) for k, v in seconds.items()}
 
 
-__all__ = ["cpu_split", "stage_split", "fsw_startup_cpu", "median_run", "navrun_rows", "run_three_processes"]
+__all__ = ["cpu_split", "stage_split", "fsw_startup_cpu", "median_run", "navrun_rows", "run_details"]
