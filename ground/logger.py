@@ -96,11 +96,13 @@ class _Writer:
     player follows the mission — and a message without one (unknown or invalid payloads) gets
     the latest mission time seen; otherwise the receive time."""
 
-    def __init__(self, rec: McapRecorder, validate: bool, mission_time: bool = True, tap: FoxgloveTap | None = None):
+    def __init__(self, rec: McapRecorder, validate: bool, mission_time: bool = True, tap: FoxgloveTap | None = None,
+                 feed: Callable[[str, type, bytes, Any, int], None] | None = None):
         self.rec = rec
         self.validate = validate
         self.mission_time = mission_time
         self.tap = tap
+        self.feed = feed
         self._mission_ns: int | None = None
         self.unknown: dict[str, int] = {}
         self.invalid: dict[str, int] = {}
@@ -148,6 +150,8 @@ class _Writer:
         self.rec.write(got.topic, got.payload, log_ns, publish_ns, got.pub_seq or 0)
         if self.tap is not None:
             self.tap(got.topic, cls, got.payload, message, log_ns)
+        if self.feed is not None and cls is not None:
+            self.feed(got.topic, cls, got.payload, message, log_ns)
         if isinstance(message, RunStatus) and message.state == "end-of-run":
             self.ends.add(message.source)
 
@@ -224,6 +228,7 @@ def run_logger(
     mission_time: bool = True,
     foxglove_channels: bool = True,
     live: tuple[str, int] | None = None,
+    feed: Callable[[str, type, bytes, Any, int], None] | None = None,
 ) -> LogResult:
     """Record run ``run_id`` into ``out_path`` until it ends or is stopped (see module doc).
 
@@ -238,7 +243,10 @@ def run_logger(
     counted in ``gaps`` once nothing more has arrived for ``settle_s``.
     ``mission_time``: ``log_time`` is each message's mission time (see :class:`_Writer`);
     ``foxglove_channels``: add the Foxglove view's channels (:mod:`ground.foxglove`); ``live``:
-    (host, port) to serve every channel over Foxglove's WebSocket protocol while recording.
+    (host, port) to serve every channel over Foxglove's WebSocket protocol while recording;
+    ``feed(topic, cls, payload, message, log_ns)``: called after each ICD message is recorded, in
+    recording order (``message`` is the decoded ICD object, or only its JSON value without
+    ``validate``), e.g. a :class:`ground.report.summary_feed.SummaryFeed`.
     """
     topics.check_run_id(run_id)
     out_path = os.fspath(out_path)
@@ -274,7 +282,7 @@ def run_logger(
             tap = None if view is None and server is None else FoxgloveTap(rec, view, server)
             if server is not None and print_fn is not None:
                 print_fn(f"live view: {server.url} (Foxglove: Open connection, Foxglove WebSocket)")
-            write = _Writer(rec, validate, mission_time, tap)
+            write = _Writer(rec, validate, mission_time, tap, feed)
             if ready_event is not None:
                 ready_event.set()
             finished_at: float | None = None

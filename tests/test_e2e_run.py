@@ -107,6 +107,27 @@ def test_summary_is_consistent_with_the_mcap(short_run):
         assert summary["budget"]["stage_cpu_us"] is None
 
 
+def test_the_logger_summarised_the_run_as_the_recording_does(short_run):
+    """The summary comes from the logger, fed while it recorded (nothing read back after the run):
+    it is the summary of the recording read back, to the last digit."""
+    from ground.mcap_io.reader import summary as mcap_counts
+    from ground.report.run_summary import reads_topic, summarize
+    from tools.launcher import LOGGER_SUMMARY
+
+    proc, out, _ = short_run
+    assert "no summary written" not in (out / "ground.log").read_text()
+    assert not (out / LOGGER_SUMMARY).exists()  # taken into summary.json
+    written = json.loads((out / "summary.json").read_text())
+    mcap = out / "run.mcap"
+    messages = [(r.topic, r.message) for r in read_messages(mcap, topics=[t for t in mcap_counts(mcap) if reads_topic(t)],
+                                                            sort_in_memory=True)]
+    assert len(messages) > 2000
+    back = summarize(messages, scenario=written["scenario"], seed=written["seed"], fault=written["fault"]["preset"],
+                     t0=written["t0"], wall_time_s=written["wall_time_s"]).to_json()
+    launcher_only = ("run_id", "status", "reason", "restarts", "files")
+    assert {k: v for k, v in written.items() if k not in launcher_only} == json.loads(json.dumps(back))
+
+
 def _children(pid: int) -> list[int]:
     out = []
     for task in Path(f"/proc/{pid}/task").iterdir():

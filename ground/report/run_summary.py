@@ -24,6 +24,18 @@ from ground.report.summary_types import (BPlaneEntry, NisEntry, BudgetBlock, Com
 
 DAY_S = 86400.0
 
+#: MCAP topic prefixes of the channels the ground adds for Foxglove: not ICD messages, nothing to summarise.
+FOXGLOVE_PREFIXES = ("/foxglove/", "/plot/")
+#: ICD channels a run's summary leaves out: the measurements (the simulator's end-of-run status
+#: counts them) and the residuals (decoding them strictly costs seconds; their NIS statistics are
+#: the report's, ``navbank report``, and the campaigns', from in-process summaries).
+UNREAD_TOPICS = ("/sim/measurements", "/fsw/residuals")
+
+
+def reads_topic(mcap_topic: str) -> bool:
+    """Whether the summary of a recorded run reads the channel ``mcap_topic`` (e.g. ``/fsw/status``)."""
+    return mcap_topic not in UNREAD_TOPICS and not mcap_topic.startswith(FOXGLOVE_PREFIXES)
+
 
 def _by_topic(messages: Iterable[tuple[str, Any]]) -> dict[str, list]:
     out: dict[str, list] = defaultdict(list)

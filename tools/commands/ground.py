@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import json
+import math
 import sys
 import time
+from pathlib import Path
+from typing import Any
 
 from fsw.transport import TransportError
 from ground import logger
 from tools.commands.arg_types import run_id_arg
-from tools.commands.outputs import check_output_file, write_error_line
+from tools.commands.errors import UsageError
+from tools.commands.outputs import check_output_file, write_error_line, write_json
 from tools.commands.transport_args import add_transport_arguments
 from tools.rendezvous import joined
 
@@ -66,16 +71,53 @@ def _add_log_arguments(parser) -> None:
     parser.add_argument("--live-host", default="127.0.0.1", metavar="HOST", help="address of the live view (default 127.0.0.1)")
     parser.add_argument("--live-port", type=int, default=8765, metavar="PORT",
                         help="port of the live view (default 8765, Foxglove's; 0: any free port)")
+    parser.add_argument("--summary", default=None, metavar="FILE",
+                        help="also write the run's summary (summary.json's numbers, from the messages as they are "
+                        "recorded) to FILE once the run has ended; needs --summary-context")
+    parser.add_argument("--summary-context", default=None, metavar="JSON",
+                        help='what the recording does not say about the run: {"scenario": NAME, "seed": N, '
+                        '"fault": PRESET or null, "t0": scenario start [s TDB past J2000]}')
     add_transport_arguments(parser)
+
+
+#: --summary-context's keys and the JSON types each takes
+_CONTEXT_KEYS = {"scenario": (str,), "seed": (int,), "fault": (str, type(None)), "t0": (int, float)}
+
+
+def summary_context(text: str) -> dict[str, Any]:
+    """The run facts of ``--summary-context`` (UsageError, exit 2, for anything else)."""
+    try:
+        value = json.loads(text)
+    except ValueError as exc:
+        raise UsageError(f"--summary-context: not JSON ({exc})") from None
+    if not isinstance(value, dict) or set(value) != set(_CONTEXT_KEYS):
+        raise UsageError(f"--summary-context: expected an object with exactly the keys {', '.join(_CONTEXT_KEYS)}")
+    for key, types in _CONTEXT_KEYS.items():
+        v = value[key]
+        if isinstance(v, bool) or not isinstance(v, types):
+            raise UsageError(f"--summary-context: {key} must be {' or '.join(t.__name__ for t in types)}, got {v!r}")
+    if not math.isfinite(value["t0"]):
+        raise UsageError(f"--summary-context: t0 must be finite, got {value['t0']!r}")
+    value["t0"] = float(value["t0"])
+    return value
 
 
 def _log(args) -> int:
     """Run ``navbank ground log``; 0 on success, 1 if the network or the file failed."""
     check_output_file(args.out)  # before subscribing: exit 2 for a file we could not write
+    feed = context = None
+    if (args.summary is None) != (args.summary_context is None):
+        raise UsageError("--summary and --summary-context go together")
+    if args.summary is not None:
+        from ground.report.summary_feed import SummaryFeed  # imported before the run: not on its wall time
+
+        check_output_file(args.summary, "--summary")
+        context = summary_context(args.summary_context)
+        feed = SummaryFeed()
     try:
         producers = tuple(p.strip() for p in args.producers.split(",") if p.strip())
         with joined(args, args.run_id, "ground", name="ground log") as cfg:
-            logger.run_logger(
+            result = logger.run_logger(
                 args.run_id,
                 args.out,
                 cfg,
@@ -89,6 +131,7 @@ def _log(args) -> int:
                 mission_time=args.log_time == "mission",
                 foxglove_channels=not args.no_foxglove,
                 live=(args.live_host, args.live_port) if args.live else None,
+                feed=feed,
             )
     except OSError as exc:
         # the only file the logger writes is --out; an error from write() or flush() carries no
@@ -98,7 +141,26 @@ def _log(args) -> int:
     except (TransportError, ValueError) as exc:
         print(f"navbank ground log: {exc}", file=sys.stderr)
         return 1
+    if feed is not None and context is not None:
+        _write_fed_summary(feed, context, Path(args.summary), result, bool(args.after))
     return 0
+
+
+def _write_fed_summary(feed: Any, context: dict[str, Any], path: Path, result: logger.LogResult, segment: bool) -> None:
+    """The summary of what this logger recorded, for a run it recorded whole: ended by the
+    producers' end-of-run, on one segment. Otherwise (or if it cannot be computed or written)
+    nothing is written and the reason printed: the run's summary then comes from the recording."""
+    path.unlink(missing_ok=True)  # never leave an earlier run's summary standing for this one
+    why = ("the recording is a later segment of its run" if segment
+           else f"the recording ended by {result.ended_by}, not by the run's end" if result.ended_by != "end-of-run"
+           else feed.spoiled)
+    if why is None:
+        try:
+            write_json(feed.summarize(**context).to_json(), path)
+            return
+        except Exception as exc:  # whatever it is, the read-back will meet it too and say it
+            why = f"{type(exc).__name__}: {exc}"
+    print(f"navbank ground log: no summary written to {path} ({why})", file=sys.stderr)
 
 
 def run(args) -> int:

@@ -86,3 +86,13 @@ def emit_json(result: object, out: str | os.PathLike | None) -> None:
         with open(out, "w", encoding="utf-8") as fh:
             fh.write(text + "\n")
     sys.stdout.write(text + "\n")
+
+
+def write_json(data: object, path: Path) -> Path:
+    """``data`` as indented JSON in ``path``, whole or not at all (written aside, then renamed)."""
+    import json
+
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, sort_keys=False) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
+    return path

@@ -15,16 +15,13 @@ from tools.commands.errors import UsageError
 from tools.commands.arg_types import run_id_arg
 from tools.commands.common import add_scenario_arguments, new_run_id, scenario_from_args
 from tools.commands.outputs import check_output_dir, write_error_line
-from tools.launcher import DEFAULT_MAX_RESTARTS, Restart, RunFailed, launch, write_summary
+from tools.launcher import DEFAULT_MAX_RESTARTS, LOGGER_SUMMARY, Restart, RunFailed, launch, write_summary
 from fsw.transport.session import free_tcp_ports
 from tools.progress import advance_to, fsw_progress, progress_bar
 from tools.scenario import ScenarioConfig, resolve
 
 if TYPE_CHECKING:
     from ground.report.summary_types import RunEnding, RunSummary
-
-#: channels the ground adds for Foxglove (not ICD messages: nothing to summarise)
-FOXGLOVE_PREFIXES = ("/foxglove/", "/plot/")
 
 NAME = "run"
 HELP = "run simulator + FSW + ground logger as separate processes over Zenoh and report"
@@ -143,47 +140,68 @@ def _restarts_block(restarts: list[Restart], t0: float, mcap: Path, segments: li
 def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str | None, wall: float,
              status: RunEnding, reason: str | None = None, restarts: list[Restart] | None = None
              ) -> RunSummary | dict[str, Any]:
-    """The run's summary from what was recorded. A logger that died leaves run.mcap without its
-    footer: what it holds is first rewritten into run.recovered.mcap. If nothing usable was
-    recorded, a summary of just how the run ended."""
+    """The run's summary from what was recorded: the logger's (:data:`~tools.launcher.LOGGER_SUMMARY`)
+    when it recorded the whole run, else from the MCAP read back. A logger that died leaves run.mcap
+    without its footer: what it holds is first rewritten into run.recovered.mcap. If nothing
+    usable was recorded, a summary of just how the run ended."""
     from ground.mcap_io.reader import is_complete, read_messages, recover
     from ground.mcap_io.reader import summary as mcap_counts
-    from ground.report.run_summary import summarize
+    from ground.report.run_summary import reads_topic, summarize
     from fsw.interface import topics
     from ground.report.summary_types import RestartsBlock, RunFiles
     from sim.resend import RESENT
 
     mcap = out / "run.mcap"
+    init = cfg.fsw.initial_state
+    if init is None:
+        raise UsageError("the scenario resolved without an a-priori initial state")
+    fed = _logger_summary(out / LOGGER_SUMMARY, mcap) if status == "complete" and not restarts else None
+    messages: list[tuple[str, Any]] = []
+    segments: list[Any] = []
     try:
-        segments = _merge_segments(out)
-        if not is_complete(mcap):
-            fixed = out / "run.recovered.mcap"
-            recover(mcap, fixed)
-            print(f"navbank run: {mcap} was left incomplete; what it held is in {fixed}", file=sys.stderr)
-            mcap = fixed
-        # every topic but the measurements themselves (the simulator's end-of-run status counts them)
-        # nor the residuals: decoding them strictly costs seconds, and their NIS statistics are
-        # the report's (navbank report) and the campaigns' (in-process summaries)
-        wanted = [t for t in mcap_counts(mcap)
-                  if t not in ("/sim/measurements", "/fsw/residuals") and not t.startswith(FOXGLOVE_PREFIXES)]
-        messages = [(rec.topic, rec.message) for rec in read_messages(mcap, topics=wanted, sort_in_memory=True)
-                    if rec.message is not None]
-        init = cfg.fsw.initial_state
-        if init is None:
-            raise UsageError("the scenario resolved without an a-priori initial state")
-        summary = summarize(messages, scenario=cfg.name, seed=seed, fault=fault, t0=init.t_s, wall_time_s=wall)
-    except UsageError:
-        raise
+        if fed is not None:
+            summary = dataclasses.replace(fed, wall_time_s=wall)
+        else:
+            segments = _merge_segments(out)
+            if not is_complete(mcap):
+                fixed = out / "run.recovered.mcap"
+                recover(mcap, fixed)
+                print(f"navbank run: {mcap} was left incomplete; what it held is in {fixed}", file=sys.stderr)
+                mcap = fixed
+            wanted = [t for t in mcap_counts(mcap) if reads_topic(t)]
+            messages = [(rec.topic, rec.message) for rec in read_messages(mcap, topics=wanted, sort_in_memory=True)
+                        if rec.message is not None]
+            summary = summarize(messages, scenario=cfg.name, seed=seed, fault=fault, t0=init.t_s, wall_time_s=wall)
     except Exception as exc:  # an interrupted or failed run may have recorded too little to summarise
         if status == "complete":
             raise
         return {"run_id": run_id, "status": status, "reason": reason,
                 "summary_error": f"{type(exc).__name__}: {exc}"[:500], "files": {"mcap": str(out / "run.mcap")}}
+    # the simulator's resend counts matter only after an FSW restart, which the logger's summary never follows
     resent = [m.counts[RESENT] for t, m in messages if t == "/" + topics.SIM_STATUS and RESENT in m.counts]
     block = None if restarts is None else RestartsBlock.from_json(
         _restarts_block(restarts, init.t_s, mcap, segments, resent))
     return dataclasses.replace(summary, run_id=run_id, status=status, reason=reason, restarts=block,
                                files=RunFiles(mcap=str(mcap), config=str(out / "config.yaml")))
+
+
+def _logger_summary(path: Path, mcap: Path) -> RunSummary | None:
+    """The summary the logger wrote while recording the whole run (taken, and its file removed:
+    summary.json is the run's), None if there is none to trust — then the recording is read back."""
+    from ground.mcap_io.reader import is_complete
+    from ground.report.summary_types import RunSummary
+
+    if not path.exists():
+        return None  # the logger said why (its log)
+    try:
+        text = path.read_text(encoding="utf-8")
+        path.unlink()
+        # the logger finishes its file before it writes the summary: a file without its footer is not that run's
+        return RunSummary.from_json(json.loads(text)) if is_complete(mcap) else None
+    except Exception as exc:  # noqa: BLE001 - whatever spoilt it, the recording still holds the truth
+        print(f"navbank run: the logger's summary {path} was not usable ({type(exc).__name__}: {exc}); "
+              "reading the recording back", file=sys.stderr)
+        return None
 
 
 def _fsw_echo(bar: Any) -> Callable[[str], None]:
@@ -228,6 +246,8 @@ def run(args) -> int:
         live = (args.live_host, port)
         print(f"navbank run {run_id}: live view on ws://{args.live_host}:{port} (Foxglove: Open connection, "
               "Foxglove WebSocket)", file=sys.stderr)
+    init = cfg.fsw.initial_state
+    context = None if init is None else {"scenario": cfg.name, "seed": seed, "fault": args.fault, "t0": init.t_s}
     t0 = time.perf_counter()
     bar = None if args.quiet else progress_bar(cfg.sim.span_days, desc="run", unit="day")
     echo = None if bar is None else _fsw_echo(bar)
@@ -237,7 +257,7 @@ def run(args) -> int:
     restarts: list[Restart] = []
     try:
         launch(cfg, run_id, out, timeout_s=args.timeout, echo=echo, max_restarts=args.max_restarts, restarts=restarts,
-               authenticated=not args.plain_tcp, live=live, rate=args.rate)
+               authenticated=not args.plain_tcp, live=live, rate=args.rate, summary_context=context)
         if bar is not None:
             advance_to(bar, bar.total)  # the last measurement may come a little before the span's end
     except RunFailed as exc:

@@ -1,0 +1,61 @@
+"""The run summary fed while the ground logger records, so that nothing has to read the recording
+back once the run has ended.
+
+``navbank run`` used to re-read its MCAP file after its processes had stopped, to write the
+summary: ~68,000 messages of a 45-day run, 0.8 s on the run's wall time. The logger holds each
+message as it writes it; a :class:`SummaryFeed` keeps, strictly decoded, the ones
+:func:`~ground.report.run_summary.summarize` reads, in the order the read-back delivers them (by
+log time; ties in recording order), so :meth:`SummaryFeed.summarize` is the summary of the
+recording. A message that fails strict decoding spoils the feed (:attr:`SummaryFeed.spoiled`):
+reading the recording back is then the only honest summary, and its error the one to show.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fsw.interface import codec, topics
+from ground.report.run_summary import reads_topic, summarize
+from ground.report.summary_types import RunSummary
+
+
+class SummaryFeed:
+    """``feed(topic, cls, payload, message, log_ns)`` for every ICD message recorded, in recording order."""
+
+    __slots__ = ("_kept", "_reads", "spoiled")
+
+    def __init__(self) -> None:
+        self._kept: list[tuple[int, str, Any]] = []
+        self._reads: dict[str, bool] = {}  # per topic: whether the summary reads it
+        #: why the feed cannot stand for the recording (None: it can)
+        self.spoiled: str | None = None
+
+    def __call__(self, topic: str, cls: type, payload: bytes, message: Any, log_ns: int) -> None:
+        reads = self._reads.get(topic)
+        if reads is None:
+            reads = self._reads[topic] = reads_topic(topics.mcap_topic(topic))
+        if not reads or self.spoiled is not None:
+            return
+        if not isinstance(message, cls):  # the logger kept only the JSON value (it records without validating)
+            try:
+                message = codec.from_json(cls, payload)
+            except codec.ICDError as exc:
+                self.spoiled = f"{topics.mcap_topic(topic)}: {exc}"
+                self._kept.clear()
+                return
+        self._kept.append((log_ns, topics.mcap_topic(topic), message))
+
+    def __len__(self) -> int:
+        return len(self._kept)
+
+    def messages(self) -> list[tuple[str, Any]]:
+        """(MCAP topic, message) in log-time order, ties in recording order — the read-back's order
+        (:func:`ground.mcap_io.reader.read_messages`)."""
+        if self.spoiled is not None:
+            raise ValueError(f"the recording holds a message that fails strict decoding ({self.spoiled})")
+        return [(topic, msg) for _, topic, msg in sorted(self._kept, key=lambda k: k[0])]
+
+    def summarize(self, *, scenario: str, seed: int, fault: str | None, t0: float,
+                  wall_time_s: float | None = None) -> RunSummary:
+        """:func:`~ground.report.run_summary.summarize` of what was fed."""
+        return summarize(self.messages(), scenario=scenario, seed=seed, fault=fault, t0=t0, wall_time_s=wall_time_s)
