@@ -26,24 +26,27 @@ class SummaryFeed:
 
     def __init__(self) -> None:
         self._kept: list[tuple[int, str, Any]] = []
-        self._reads: dict[str, bool] = {}  # per topic: whether the summary reads it
+        # per topic: its MCAP topic if the summary reads it, else None (a run has a few dozen topics)
+        self._reads: dict[str, str | None] = {}
         #: why the feed cannot stand for the recording (None: it can)
         self.spoiled: str | None = None
 
     def __call__(self, topic: str, cls: type, payload: bytes, message: Any, log_ns: int) -> None:
-        reads = self._reads.get(topic)
-        if reads is None:
-            reads = self._reads[topic] = reads_topic(topics.mcap_topic(topic))
-        if not reads or self.spoiled is not None:
+        try:
+            channel = self._reads[topic]
+        except KeyError:
+            channel = topics.mcap_topic(topic)
+            channel = self._reads[topic] = channel if reads_topic(channel) else None
+        if channel is None or self.spoiled is not None:
             return
         if not isinstance(message, cls):  # the logger kept only the JSON value (it records without validating)
             try:
                 message = codec.from_json(cls, payload)
             except codec.ICDError as exc:
-                self.spoiled = f"{topics.mcap_topic(topic)}: {exc}"
+                self.spoiled = f"{channel}: {exc}"
                 self._kept.clear()
                 return
-        self._kept.append((log_ns, topics.mcap_topic(topic), message))
+        self._kept.append((log_ns, channel, message))
 
     def __len__(self) -> int:
         return len(self._kept)
