@@ -229,6 +229,7 @@ def run_logger(
     foxglove_channels: bool = True,
     live: tuple[str, int] | None = None,
     feed: Callable[[str, type, bytes, Any, int], None] | None = None,
+    on_closed: Callable[[LogResult], None] | None = None,
 ) -> LogResult:
     """Record run ``run_id`` into ``out_path`` until it ends or is stopped (see module doc).
 
@@ -246,7 +247,8 @@ def run_logger(
     (host, port) to serve every channel over Foxglove's WebSocket protocol while recording;
     ``feed(topic, cls, payload, message, log_ns)``: called after each ICD message is recorded, in
     recording order (``message`` is the decoded ICD object, or only its JSON value without
-    ``validate``), e.g. a :class:`ground.report.summary_feed.SummaryFeed`.
+    ``validate``), e.g. a :class:`ground.report.summary_feed.SummaryFeed`; ``on_closed(result)``:
+    called once the file is finished, while the session still lets its last replies leave.
     """
     topics.check_run_id(run_id)
     out_path = os.fspath(out_path)
@@ -335,8 +337,13 @@ def run_logger(
                  "refused": result.refused,
                  "finished": list(finished)},
             )
+        closed = time.monotonic()
+        if on_closed is not None:
+            on_closed(result)
         if ended_by == "end-of-run":
-            life.let_replies_leave()
+            # the last drain replies were just sent: they leave while on_closed works, and the
+            # session waits out only what remains of the linger
+            life.let_replies_leave(max(0.0, tp.REPLY_LINGER_S - (time.monotonic() - closed)))
     if print_fn is not None:
         print_fn(result.report())
     return result

@@ -17,6 +17,7 @@ from fsw import transport as T
 from fsw.interface import messages as m
 from ground.logger import run_logger
 from ground.mcap_io import is_complete, read_messages, recover, summary
+from ground.report.run_summary import reads_topic, summarize
 from child_results import collect_results
 
 CTX = mp.get_context("spawn")
@@ -74,9 +75,14 @@ def fsw_proc(cfg, run: str, n: int, out) -> None:
 
 
 def logger_proc(cfg, run: str, path: str, out, ready) -> None:
+    from ground.report.summary_feed import SummaryFeed
+
+    feed, closed = SummaryFeed(), []
     res = run_logger(run, path, cfg, ready_event=ready, attachments=[("scenario.yaml", b"name: test\n", "application/yaml")],
-                     metadata={"scenario": "unit"}, print_fn=None)
-    out.put(("logger", res))
+                     metadata={"scenario": "unit"}, print_fn=None, feed=feed,
+                     on_closed=lambda r: closed.append((r.ended_by, is_complete(path))))
+    fed = feed.summarize(scenario="unit", seed=0, fault=None, t0=6e8)
+    out.put(("logger", (res, closed, len(feed), fed.to_json())))
 
 
 
@@ -105,8 +111,15 @@ def test_logger_records_a_whole_run_and_ends_by_itself(tmp_path):
     _join([sim, fsw, logger])
     assert [p.exitcode for p in (sim, fsw, logger)] == [0, 0, 0]
     assert results["sim"] == {"ground": True, "fsw": True} and results["fsw"] == {"ground": True}
-    res = results["logger"]
+    res, closed, kept, fed = results["logger"]
     assert res.ended_by == "end-of-run" and set(res.finished) == {"sim", "fsw"}
+    assert closed == [("end-of-run", True)]  # called once, the file finished
+    # the summary fed as the messages came in is the summary of the file read back
+    assert kept == 500 + 500 + 30 + 2 + 1  # budget, weights, truth, sim and fsw statuses (not the measurements)
+    wanted = [t for t in summary(path) if reads_topic(t)]
+    back = summarize([(r.topic, r.message) for r in read_messages(path, topics=wanted, sort_in_memory=True, strict=False)
+                      if not isinstance(r.message, bytes)], scenario="unit", seed=0, fault=None, t0=6e8)
+    assert fed == back.to_json()
     assert res.unknown == {"sim/debug": 1} and res.invalid == {"sim/measurements": 1} and res.gaps == {}
 
     assert is_complete(path)

@@ -7,7 +7,7 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from fsw.transport import TransportError
 from ground import logger
@@ -117,7 +117,7 @@ def _log(args) -> int:
     try:
         producers = tuple(p.strip() for p in args.producers.split(",") if p.strip())
         with joined(args, args.run_id, "ground", name="ground log") as cfg:
-            result = logger.run_logger(
+            logger.run_logger(
                 args.run_id,
                 args.out,
                 cfg,
@@ -132,6 +132,7 @@ def _log(args) -> int:
                 foxglove_channels=not args.no_foxglove,
                 live=(args.live_host, args.live_port) if args.live else None,
                 feed=feed,
+                on_closed=None if feed is None or context is None else _summary_writer(feed, context, args),
             )
     except OSError as exc:
         # the only file the logger writes is --out; an error from write() or flush() carries no
@@ -141,25 +142,33 @@ def _log(args) -> int:
     except (TransportError, ValueError) as exc:
         print(f"navbank ground log: {exc}", file=sys.stderr)
         return 1
-    if feed is not None and context is not None:
-        _write_fed_summary(feed, context, Path(args.summary), result, bool(args.after))
     return 0
+
+
+def _summary_writer(feed: Any, context: dict[str, Any], args) -> Callable[[logger.LogResult], None]:
+    """What the logger calls once its file is finished: the summary is written while the session
+    lets its last replies leave (it waits 0.2 s for them anyway)."""
+
+    def write(result: logger.LogResult) -> None:
+        _write_fed_summary(feed, context, Path(args.summary), result, bool(args.after))
+
+    return write
 
 
 def _write_fed_summary(feed: Any, context: dict[str, Any], path: Path, result: logger.LogResult, segment: bool) -> None:
     """The summary of what this logger recorded, for a run it recorded whole: ended by the
     producers' end-of-run, on one segment. Otherwise (or if it cannot be computed or written)
     nothing is written and the reason printed: the run's summary then comes from the recording."""
-    path.unlink(missing_ok=True)  # never leave an earlier run's summary standing for this one
     why = ("the recording is a later segment of its run" if segment
            else f"the recording ended by {result.ended_by}, not by the run's end" if result.ended_by != "end-of-run"
            else feed.spoiled)
-    if why is None:
-        try:
+    try:
+        path.unlink(missing_ok=True)  # never leave an earlier run's summary standing for this one
+        if why is None:
             write_json(feed.summarize(**context).to_json(), path)
             return
-        except Exception as exc:  # whatever it is, the read-back will meet it too and say it
-            why = f"{type(exc).__name__}: {exc}"
+    except Exception as exc:  # whatever it is, the read-back will meet it too and say it
+        why = f"{type(exc).__name__}: {exc}"
     print(f"navbank ground log: no summary written to {path} ({why})", file=sys.stderr)
 
 
