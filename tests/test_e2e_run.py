@@ -126,6 +126,10 @@ def test_the_logger_summarised_the_run_as_the_recording_does(short_run):
                      t0=written["t0"], wall_time_s=written["wall_time_s"]).to_json()
     launcher_only = ("run_id", "status", "reason", "restarts", "files")
     assert {k: v for k, v in written.items() if k not in launcher_only} == json.loads(json.dumps(back))
+    # the logger's counts of duplicates and gaps came with its summary: they are the recording's
+    from tools.commands.run import _recorded_by_logger, _restarts_block
+
+    assert written["restarts"] == _restarts_block([], written["t0"], _recorded_by_logger(mcap), [], [])
 
 
 def _children(pid: int) -> list[int]:

@@ -62,7 +62,12 @@ def test_the_summary_is_written_only_for_a_run_recorded_whole(tmp_path, capsys):
     feed = _fed()
     path = tmp_path / "s.json"
     _write_fed_summary(feed, GOOD, path, LogResult(str(tmp_path / "r.mcap"), "end-of-run", 1.0), segment=False)
-    assert json.loads(path.read_text()) == json.loads(json.dumps(feed.summarize(**GOOD).to_json()))
+    assert json.loads(path.read_text()) == {"summary": json.loads(json.dumps(feed.summarize(**GOOD).to_json())),
+                                            "logger": {"duplicates": {}, "gaps": {}}}
+    counted = LogResult(str(tmp_path / "r.mcap"), "end-of-run", 1.0, duplicates={"sim/measurements": 2},
+                        gaps={"fsw/status": 1})
+    _write_fed_summary(feed, GOOD, path, counted, segment=False)
+    assert json.loads(path.read_text())["logger"] == {"duplicates": {"sim/measurements": 2}, "gaps": {"fsw/status": 1}}
     assert capsys.readouterr().err == ""
     for ended_by, segment, why in (("duration", False, "ended by duration"), ("signal", False, "ended by signal"),
                                    ("end-of-run", True, "later segment")):
@@ -83,3 +88,21 @@ def test_a_spoilt_feed_writes_no_summary(tmp_path, capsys):
     assert not path.exists()
     err = capsys.readouterr().err
     assert "no summary written" in err and "/fsw/budget" in err
+
+
+def test_navbank_run_takes_the_logger_summary_once_or_reads_the_recording_back(tmp_path, capsys):
+    from tools.commands.run import _logger_summary
+
+    feed = _fed()
+    path = tmp_path / "ground-summary.json"
+    counted = LogResult(str(tmp_path / "r.mcap"), "end-of-run", 1.0, gaps={"fsw/status": 1})
+    _write_fed_summary(feed, GOOD, path, counted, segment=False)
+    summary, logged = _logger_summary(path)
+    assert summary == feed.summarize(**GOOD) and logged == {"duplicates": {}, "gaps": {"fsw/status": 1}}
+    assert not path.exists()  # taken: summary.json is the run's
+    assert _logger_summary(path) is None and capsys.readouterr().err == ""
+    for spoilt in ("{", '{"summary": {}}', '{"summary": {"seed": "x"}, "logger": {}}', '{"summary": 1, "logger": []}'):
+        path.write_text(spoilt)
+        assert _logger_summary(path) is None
+        assert "reading the recording back" in capsys.readouterr().err
+        assert not path.exists()

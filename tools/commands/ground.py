@@ -165,7 +165,9 @@ def _write_fed_summary(feed: Any, context: dict[str, Any], path: Path, result: l
     try:
         path.unlink(missing_ok=True)  # never leave an earlier run's summary standing for this one
         if why is None:
-            write_json(feed.summarize(**context).to_json(), path)
+            # with the logger's counts the run's summary reports (the recording's closing record holds them too)
+            write_json({"summary": feed.summarize(**context).to_json(),
+                        "logger": {"duplicates": result.duplicates, "gaps": result.gaps}}, path)
             return
     except Exception as exc:  # whatever it is, the read-back will meet it too and say it
         why = f"{type(exc).__name__}: {exc}"

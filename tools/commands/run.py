@@ -109,23 +109,31 @@ def _merge_segments(out: Path) -> list[Any]:
              "last_log_unix_s": None if s.last_log_ns is None else s.last_log_ns / 1e9} for s in merged]
 
 
-def _restarts_block(restarts: list[Restart], t0: float, mcap: Path, segments: list[Any],
-                    resent: list[int]) -> dict[str, Any]:
-    """The summary's ``restarts`` section: the launcher's record of each restart, how many
-    measurements the simulator sent again after each FSW restart (``resent``, in order, from its
-    status), and the logger's count of what it received twice (dropped) or never (lost)."""
+def _recorded_by_logger(mcap: Path) -> dict[str, Any]:
+    """The logger's closing record in the recording (``navbank.logger`` metadata: its counts of
+    duplicates, gaps, ... as JSON texts); empty if there is none."""
     from ground.mcap_io.reader import read_metadata
 
     try:
-        logged = read_metadata(mcap).get("navbank.logger", {})
+        return read_metadata(mcap).get("navbank.logger", {})
     except Exception:  # a recording without the logger's closing record: nothing to add
-        logged = {}
+        return {}
+
+
+def _restarts_block(restarts: list[Restart], t0: float, logged: dict[str, Any], segments: list[Any],
+                    resent: list[int]) -> dict[str, Any]:
+    """The summary's ``restarts`` section: the launcher's record of each restart, how many
+    measurements the simulator sent again after each FSW restart (``resent``, in order, from its
+    status), and the logger's count of what it received twice (dropped) or never (lost):
+    ``logged``'s ``duplicates`` and ``gaps`` (tables, or their JSON texts as the recording keeps them)."""
 
     def table(key: str) -> dict[str, int]:
-        try:
-            value = json.loads(logged.get(key, "{}"))
-        except ValueError:
-            return {}
+        value = logged.get(key, {})
+        if isinstance(value, str):
+            try:
+                value = json.loads(value)
+            except ValueError:
+                return {}
         return {str(k): int(v) for k, v in value.items()} if isinstance(value, dict) else {}
 
     resent_after = iter(resent)
@@ -155,12 +163,12 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
     init = cfg.fsw.initial_state
     if init is None:
         raise UsageError("the scenario resolved without an a-priori initial state")
-    fed = _logger_summary(out / LOGGER_SUMMARY, mcap) if status == "complete" and not restarts else None
+    fed = _logger_summary(out / LOGGER_SUMMARY) if status == "complete" and not restarts else None
     messages: list[tuple[str, Any]] = []
     segments: list[Any] = []
     try:
         if fed is not None:
-            summary = dataclasses.replace(fed, wall_time_s=wall)
+            summary, logged = dataclasses.replace(fed[0], wall_time_s=wall), fed[1]
         else:
             segments = _merge_segments(out)
             if not is_complete(mcap):
@@ -172,6 +180,7 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
             messages = [(rec.topic, rec.message) for rec in read_messages(mcap, topics=wanted, sort_in_memory=True)
                         if rec.message is not None]
             summary = summarize(messages, scenario=cfg.name, seed=seed, fault=fault, t0=init.t_s, wall_time_s=wall)
+            logged = _recorded_by_logger(mcap) if restarts is not None else {}
     except Exception as exc:  # an interrupted or failed run may have recorded too little to summarise
         if status == "complete":
             raise
@@ -180,15 +189,16 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
     # the simulator's resend counts matter only after an FSW restart, which the logger's summary never follows
     resent = [m.counts[RESENT] for t, m in messages if t == "/" + topics.SIM_STATUS and RESENT in m.counts]
     block = None if restarts is None else RestartsBlock.from_json(
-        _restarts_block(restarts, init.t_s, mcap, segments, resent))
+        _restarts_block(restarts, init.t_s, logged, segments, resent))
     return dataclasses.replace(summary, run_id=run_id, status=status, reason=reason, restarts=block,
                                files=RunFiles(mcap=str(mcap), config=str(out / "config.yaml")))
 
 
-def _logger_summary(path: Path, mcap: Path) -> RunSummary | None:
-    """The summary the logger wrote while recording the whole run (taken, and its file removed:
-    summary.json is the run's), None if there is none to trust — then the recording is read back."""
-    from ground.mcap_io.reader import is_complete
+def _logger_summary(path: Path) -> tuple[RunSummary, dict[str, Any]] | None:
+    """The summary the logger wrote while recording the whole run, with its counts of duplicates
+    and gaps (taken, and the file removed: summary.json is the run's); None if there is none to
+    trust — then the recording is read back. The logger writes it only once it has finished
+    run.mcap, and a file of an earlier run was removed before this one started."""
     from ground.report.summary_types import RunSummary
 
     if not path.exists():
@@ -196,8 +206,11 @@ def _logger_summary(path: Path, mcap: Path) -> RunSummary | None:
     try:
         text = path.read_text(encoding="utf-8")
         path.unlink()
-        # the logger finishes its file before it writes the summary: a file without its footer is not that run's
-        return RunSummary.from_json(json.loads(text)) if is_complete(mcap) else None
+        data = json.loads(text)
+        logged = data["logger"]
+        if not isinstance(logged, dict):
+            raise ValueError("its logger section is not an object")
+        return RunSummary.from_json(data["summary"]), logged
     except Exception as exc:  # noqa: BLE001 - whatever spoilt it, the recording still holds the truth
         print(f"navbank run: the logger's summary {path} was not usable ({type(exc).__name__}: {exc}); "
               "reading the recording back", file=sys.stderr)
