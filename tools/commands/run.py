@@ -163,7 +163,9 @@ def _summary(cfg: ScenarioConfig, seed: int, run_id: str, out: Path, fault: str 
     init = cfg.fsw.initial_state
     if init is None:
         raise UsageError("the scenario resolved without an a-priori initial state")
-    fed = _logger_summary(out / LOGGER_SUMMARY) if status == "complete" and not restarts else None
+    fed = _logger_summary(out / LOGGER_SUMMARY)  # taken whatever happened: summary.json is the run's
+    if status != "complete" or restarts:
+        fed = None  # a run the logger may not have seen whole (the resend counts are only in the recording)
     messages: list[tuple[str, Any]] = []
     segments: list[Any] = []
     try:
