@@ -1,8 +1,8 @@
 """The run summary fed while the ground logger records, so that nothing has to read the recording
 back once the run has ended.
 
-``navbank run`` used to re-read its MCAP file after its processes had stopped, to write the
-summary: ~68,000 messages of a 45-day run, 0.8 s on the run's wall time. The logger holds each
+Reading a 45-day run's recording back once its processes have stopped (~68,000 messages the
+summary reads) costs 0.8 s on ``navbank run``'s wall time. The logger holds each
 message as it writes it; a :class:`SummaryFeed` keeps, strictly decoded, the ones
 :func:`~ground.report.run_summary.summarize` reads, in the order the read-back delivers them (by
 log time; ties in recording order), so :meth:`SummaryFeed.summarize` is the summary of the
