@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import sys
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from fsw.transport import TransportError
 from ground import logger
@@ -132,7 +133,9 @@ def _log(args) -> int:
                 foxglove_channels=not args.no_foxglove,
                 live=(args.live_host, args.live_port) if args.live else None,
                 feed=feed,
-                on_closed=None if feed is None or context is None else _summary_writer(feed, context, args),
+                # the summary is written while the session lets its last replies leave (it waits 0.2 s for them anyway)
+                on_closed=None if feed is None or context is None else
+                functools.partial(_write_fed_summary, feed, context, Path(args.summary), segment=bool(args.after)),
             )
     except OSError as exc:
         # the only file the logger writes is --out; an error from write() or flush() carries no
@@ -143,16 +146,6 @@ def _log(args) -> int:
         print(f"navbank ground log: {exc}", file=sys.stderr)
         return 1
     return 0
-
-
-def _summary_writer(feed: Any, context: dict[str, Any], args) -> Callable[[logger.LogResult], None]:
-    """What the logger calls once its file is finished: the summary is written while the session
-    lets its last replies leave (it waits 0.2 s for them anyway)."""
-
-    def write(result: logger.LogResult) -> None:
-        _write_fed_summary(feed, context, Path(args.summary), result, bool(args.after))
-
-    return write
 
 
 def _write_fed_summary(feed: Any, context: dict[str, Any], path: Path, result: logger.LogResult, segment: bool) -> None:
