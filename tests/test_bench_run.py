@@ -187,6 +187,23 @@ def test_an_in_process_run_says_where_its_cpu_went():
     assert scenario(0.25).sim.faults == () and scenario(None).sim.faults
 
 
+def test_the_bank_alone_is_timed_over_the_runs_own_measurements():
+    import math
+
+    from tools.bench.core import bank_alone_us, scenario
+    from tools.inprocess import RunResult, run_in_process
+    from tools.scenario import load_scenario
+
+    result = run_in_process(scenario(0.25), 1)
+    us = bank_alone_us(result, 1)
+    assert us is not None and math.isfinite(us) and us > 0
+    # without measurements there is nothing to time; the Earth-orbit bank is not the onboard EKF bank
+    empty = RunResult(config=result.config, seed=1, messages=[], summary=result.summary)
+    assert bank_alone_us(empty, 1) is None
+    earth = RunResult(config=load_scenario("leo-injection"), seed=1, messages=[], summary=result.summary)
+    assert bank_alone_us(earth, 1) is None
+
+
 def _processes_with(word: str) -> set[str]:
     """Ids of the running processes whose command line holds ``word``."""
     found = set()
