@@ -139,7 +139,13 @@ def run_fsw(
                 if got is not None:
                     last_data = now
                     if got.topic == topics.SIM_MEASUREMENTS:
-                        core.ingest_payload(got.payload)
+                        # with the measurements the batch took behind it, decoded back to back
+                        # (commands are then served between such runs, at most RECEIVE_BATCH apart)
+                        more = sub.next_taken(topics.SIM_MEASUREMENTS)
+                        if more:
+                            core.ingest_payloads([got.payload, *(g.payload for g in more)])
+                        else:
+                            core.ingest_payload(got.payload)
                         if schedule.due(core.taken, core.t_last):
                             save()
                         if outbox.full:

@@ -101,3 +101,35 @@ def test_a_batch_must_take_at_least_one_sample():
     with T.open_session(T.TransportConfig()) as s:
         with pytest.raises(ValueError, match="batch"):
             T.Subscriber(s, RUN, ("sim/measurements",), batch=0)
+
+
+def test_next_taken_hands_out_the_run_of_one_topic_a_batch_already_took():
+    with T.open_session(T.TransportConfig()) as s, T.Subscriber(s, RUN, ("sim/measurements",), batch=8) as sub:
+        pub = T.Publisher(s, RUN, "sim/measurements")
+        assert sub.next_taken("sim/measurements") == []  # nothing taken: the channels are not read
+        for i in range(10):
+            pub.put(_meas(i))
+        first = sub.recv(timeout=2.0)
+        run = sub.next_taken("sim/measurements")
+        # the batch took eight; the two left wait in the channel
+        assert [g.message.seq for g in [first, *run]] == list(range(8))
+        assert sub.next_taken("sim/measurements") == [] and sub.next_taken("sim/status") == []
+        assert [g.message.seq for g in sub.drain_available()] == [8, 9]
+
+
+def test_runs_taken_with_next_taken_lose_repeat_and_reorder_nothing():
+    with T.open_session(T.TransportConfig()) as s, \
+            T.Subscriber(s, RUN, ("sim/measurements", "sim/status"), batch=16) as sub:
+        meas, status = T.Publisher(s, RUN, "sim/measurements"), T.Publisher(s, RUN, "sim/status")
+        end = m.RunStatus(t_s=4.0, timestamp=m.Stamp(sec=1, nsec=0), run_id=RUN, source="sim", state="end-of-run",
+                          counts={})
+        for i in range(4):
+            meas.put(_meas(i))
+        status.put(end)
+        got = [sub.recv(timeout=2.0)]
+        while got[-1] is not None:
+            got += sub.next_taken("sim/measurements") + [sub.recv(timeout=0.2)]
+        got.pop()
+        # two topics taken in turn: the runs stop at the status, which recv hands out in its place
+        assert [g.message.seq for g in got if g.topic == "sim/measurements"] == [0, 1, 2, 3]
+        assert [g.message for g in got if g.topic == "sim/status"] == [end]

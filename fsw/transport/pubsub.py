@@ -379,6 +379,15 @@ class Subscriber:
             if got is not None:
                 yield got
 
+    def next_taken(self, topic: str) -> list[Received]:
+        """The samples of ``topic`` next in line among those a batch has taken already (none
+        read from the channels): a consumer may handle a run of them together."""
+        taken = self._taken
+        out = []
+        while taken and taken[0].topic == topic:
+            out.append(taken.popleft())
+        return out
+
     def _take_more(self, n: int) -> None:
         """Take up to ``n`` more samples already waiting into the batch handed out next."""
         taken = self._taken
