@@ -17,10 +17,12 @@ seed: 5
 sim:
   trajectory: {span_days: 1.0}
 fsw:
+  budget: {mode: work-units, work_unit_budget: 8.0}
   gating:
-    - {network: chi2, batch_size: 150}
-    - {network: magill}
-  budget: {mode: work-units, work_unit_budget: 10.0}
+    - {network: chi2, batch_size: 100}
+    - {network: chi2-two-sided, batch_size: 100}
+    - {network: magill, lower_bound: 1.0e-12}
+    - {network: moe, features: kind, kinds: [range, doppler, optical]}
 """
 
 
