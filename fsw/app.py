@@ -141,11 +141,8 @@ def run_fsw(
                     if got.topic == topics.SIM_MEASUREMENTS:
                         # with the measurements the batch took behind it, decoded back to back
                         # (commands are then served between such runs, at most RECEIVE_BATCH apart)
-                        more = sub.next_taken(topics.SIM_MEASUREMENTS)
-                        if more:
-                            core.ingest_payloads([got.payload, *(g.payload for g in more)])
-                        else:
-                            core.ingest_payload(got.payload)
+                        run = sub.next_taken(topics.SIM_MEASUREMENTS)
+                        core.ingest_payloads([got.payload, *(g.payload for g in run)])
                         if schedule.due(core.taken, core.t_last):
                             save()
                         if outbox.full:

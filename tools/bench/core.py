@@ -35,12 +35,11 @@ from typing import Any
 import numpy as np
 
 from fsw.core.counters import stage_cpu_by_label
-from fsw.filters.ekf import union_layout
-from fsw.interface import topics
-
 from fsw.core.pipeline import no_gc_pauses
 from fsw.filters.bank import FilterBank
+from fsw.filters.ekf import union_layout
 from fsw.filters.errors import MeasurementRejected
+from fsw.interface import topics
 from tools.bench.rows import Goal, make_row
 from tools.inprocess import RunResult, run_in_process
 from tools.scenario import ScenarioConfig, load_scenario, resolve
