@@ -17,8 +17,8 @@ leaves x̄ and P̄ unchanged through the same arithmetic.
 
 The rounding of that congruence is relative to ‖M‖ ≥ ‖P̄‖, though. Where a measurement is
 many orders of magnitude stronger than the prior, P⁺ is that much smaller than P̄ and the
-rounding swamps it; :func:`update_explicit`, the linear bank's update, forms the Joseph
-products so that their rounding is relative to P⁺'s own terms (numbers there).
+rounding swamps it; the linear bank's update (:mod:`fsw.kernels.linear_step`) forms the Joseph
+products X P̄ Xᵀ with X = I − KH so that their rounding is relative to P⁺'s own terms.
 
 The EKF bank runs :func:`update`'s arithmetic compiled (:mod:`fsw.kernels.joseph_update`, for
 measurements of one or two components); :func:`update` is its reference and serves larger m.
@@ -135,75 +135,6 @@ def update(
     """
     G, residual, chi2, does = _gated_gain(Mt, n, processes, gate)
     return _joseph(Mt, G, n), residual, Mt[:, n:, n + 1 :], chi2, does
-
-
-def joseph_operands(H: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The constant operands of :func:`update_explicit` for H (N, m, n) and R (N, m, m).
-
-    Returns (HI, E, W): HI = ½[−H, 0, I] (N, m, n+1+m); E = ½[I, 0, 0] (n, n+1+m), shared by
-    all filters; W (N, n+1+m, n+1+m), zero but for its bottom-right block 2R.
-    :func:`update_explicit` writes W's first n rows and its state column on every call (W is
-    its workspace) and only reads the rest.
-    """
-    N, m, n = H.shape
-    HI = np.zeros((N, m, n + 1 + m))
-    HI[:, :, :n] = -0.5 * H
-    HI[:, :, n + 1 :] = 0.5 * np.eye(m)
-    E = np.zeros((n, n + 1 + m))
-    E[:, :n] = 0.5 * np.eye(n)
-    W = np.zeros((N, n + 1 + m, n + 1 + m))
-    W[:, n + 1 :, n + 1 :] = 2.0 * R
-    return HI, E, W
-
-
-def update_explicit(
-    Mt: np.ndarray, n: int, operands: tuple[np.ndarray, np.ndarray, np.ndarray], z: np.ndarray,
-    processes: np.ndarray | None = None, gate: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """:func:`update` with the Joseph form evaluated explicitly, which stays accurate for
-    measurements far stronger than the prior (R ≪ HP̄Hᵀ). The linear bank's update.
-
-    Same arguments and results as :func:`update`, plus ``operands`` from
-    :func:`joseph_operands` and the measurement z, (m,) or (N, m). PX⁺ is a view into a fresh
-    array and its P⁺ is exactly symmetric.
-
-    :func:`update` forms P⁺ = (L M)_left − (L M)_right Kᵀ, a difference of terms of size ‖P̄‖,
-    so P⁺ carries rounding of size eps·‖P̄‖, which swamps it where the measurement has shrunk
-    P̄ by R/HP̄Hᵀ. Linear bank SPD test, first update (P̄ ≈ diag(1e6, 1e4, 1e2), R = 1e-8 I₂),
-    against an exact rational evaluation of the same update: P⁺ off by 1.3e-2 of
-    √(P⁺ᵢᵢP⁺ⱼⱼ); fed to the second update, P⁺ then came out off by 60 (generic OpenBLAS
-    kernels) to 900 (Haswell kernels) times √(P⁺ᵢᵢP⁺ⱼⱼ), with a negative diagonal and an
-    asymmetry of 1.05·max|P⁺|.
-
-    Here P⁺ = X W̃ Xᵀ with X = [I − KH, 0, K] and W̃ = [[P̄, −x̄, 0], [0, 0, 0], [0, −z, R]]:
-    a congruence of the PSD block diagonal diag(P̄, R), so PSD up to its own rounding for any
-    X. Where a measurement is strong, I − KH is small (of order R S⁻¹) and scales P̄ down
-    before anything is summed: each product's rounding is relative to |I − KH| |P̄| |I − KH|ᵀ
-    and |K| R |K|ᵀ, not to ‖P̄‖. X's left block I − KH carries an absolute rounding δ of
-    eps; as (I − KH)P̄ = P⁺ for the optimal gain, δ moves P⁺ by δP⁺ + P⁺δᵀ + δP̄δᵀ, relative
-    to P⁺ itself apart from the eps²·‖P̄‖ of the last term. Same test and reference:
-    1.7e-16 at the first update; 1.1e-4 (Haswell) and 2.1e-4 (generic) at the second, whose
-    P̄ is nearly singular (eigenvalues 11 orders of magnitude apart); below 6e-16 from the
-    third on. The first product also gives the state: X W̃ has −(I − KH)x̄ − Kz = −x⁺ in its
-    state column, which then meets X's zero column.
-
-    X is formed halved and W̃ doubled (both exact), so the second product is ½P⁺, and
-    P⁺ = ½P⁺ + (½P⁺)ᵀ comes out symmetric to the bit in the addition that a symmetrisation
-    would cost anyway. Cost: two products of n × (n+1+m) by (n+1+m) per filter where
-    :func:`update` needs two of inner width m — the linear bank's benchmark step (6 filters,
-    15 states, 2 measurements) went from 20.6 to 29 µs.
-    """
-    HI, E, W = operands
-    # a zero gain makes X = ½[I, 0, 0] below, which gives back x̄ and P̄
-    G, residual, chi2, does = _gated_gain(Mt, n, processes, gate)
-    X = np.matmul(G[:, :, :n].transpose(0, 2, 1), HI)  # K · ½[−H, 0, I]
-    np.add(X, E, out=X)
-    np.multiply(Mt[:, :n, : n + 1], 2.0, out=W[:, :n, : n + 1])
-    W[:, n + 1 :, n] = -2.0 * np.asarray(z)
-    Y = X @ W  # [(I − KH)P̄, −x⁺, KR]
-    half_P = Y @ X.transpose(0, 2, 1)
-    np.add(half_P, half_P.transpose(0, 2, 1), out=Y[:, :, :n])
-    return Y[:, :, : n + 1], residual, Mt[:, n:, n + 1 :], chi2, does
 
 
 def symmetrise(P: np.ndarray) -> np.ndarray:
