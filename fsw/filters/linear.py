@@ -32,6 +32,14 @@ _KIND = GENERIC_LINEAR.name
 linear_step = on_first_call(globals(), "linear_step", "fsw.kernels.linear_step")
 
 
+def _padded_width(n: int) -> int:
+    """n rounded up to a multiple of 8 from 8 on. The zero rows and columns stay zero through a
+    step and add only zero terms to its sums; in return the step's loops run whole vectors (for
+    n = 15, the loops' 15 elements all went to the scalar remainder of 16-element vector loops)
+    and BLAS gets its preferred sizes."""
+    return n if n < 8 else -(-n // 8) * 8
+
+
 def _read_only(a: np.ndarray) -> np.ndarray:
     view = a.view()
     view.flags.writeable = False
@@ -82,13 +90,21 @@ class LinearFilterBank:
         N = len(self.names)
         n = np.shape(np.asarray(x0))[-1]
         m = np.shape(np.asarray(H))[-2]
-        self.F = _stack(F, N, (n, n), "F")
-        self.Q = _stack(Q, N, (n, n), "Q")
-        self.H = _stack(H, N, (m, n), "H")
+        # The step runs on states padded with zeros to a width its loops vectorise over
+        # (_padded_width); F, Q, H, x and P are views of the first n rows and columns.
+        # (_padded_width); F, Q, H, x and P are views of the first n rows and columns, made on
+        # access (a view kept in an attribute would come back from a pickle as a copy).
+        w = _padded_width(n)
+        self._n = n
+        self._Fw, self._Qw, self._Pw = (np.zeros((N, w, w)) for _ in range(3))
+        self._Hw, self._xw = np.zeros((N, m, w)), np.zeros((N, w))
+        self.F[:] = _stack(F, N, (n, n), "F")
+        self.Q[:] = _stack(Q, N, (n, n), "Q")
+        self.H[:] = _stack(H, N, (m, n), "H")
         self.R = _stack(R, N, (m, m), "R")
-        self._FT = np.ascontiguousarray(self.F.transpose(0, 2, 1))
-        self._x = _stack(x0, N, (n,), "x0")
-        self._P = _stack(P0, N, (n, n), "P0")
+        self._FTw = np.ascontiguousarray(self._Fw.transpose(0, 2, 1))
+        self._xw[:, :n] = _stack(x0, N, (n,), "x0")
+        self._Pw[:, :n, :n] = _stack(P0, N, (n, n), "P0")
         kinds = [frozenset(self.KINDS)] * N if processes is None else [frozenset(p) for p in processes]
         if len(kinds) != N:
             raise ValueError("processes needs one entry per filter")
@@ -106,7 +122,6 @@ class LinearFilterBank:
         self.t = 0.0
         self._updates = 0
         self._z_shape = (m,)
-        self._n = n
 
     @property
     def processed_count(self) -> int:
@@ -116,12 +131,27 @@ class LinearFilterBank:
     @property
     def x(self) -> np.ndarray:
         """States, (N, n): a read-only view of the bank's own (copy before keeping it)."""
-        return _read_only(self._x)
+        return _read_only(self._xw[:, : self._n])
 
     @property
     def P(self) -> np.ndarray:
         """Covariances, (N, n, n): a read-only view of the bank's own (copy before keeping it)."""
-        return _read_only(self._P)
+        return _read_only(self._Pw[:, : self._n, : self._n])
+
+    @property
+    def F(self) -> np.ndarray:
+        """Transition matrices, (N, n, n) (a view: the filters' own)."""
+        return self._Fw[:, : self._n, : self._n]
+
+    @property
+    def Q(self) -> np.ndarray:
+        """Process noise covariances, (N, n, n) (a view: the filters' own; :meth:`set_process_noise`)."""
+        return self._Qw[:, : self._n, : self._n]
+
+    @property
+    def H(self) -> np.ndarray:
+        """Measurement matrices, (N, m, n) (a view: the filters' own)."""
+        return self._Hw[:, :, : self._n]
 
     # -- configuration at run time ---------------------------------------------------------
     def index(self, name: str) -> int:
@@ -144,8 +174,8 @@ class LinearFilterBank:
         """Restart every filter from state ``x`` and covariance ``P`` (shared or per filter): what
         follows a parameter adaptation in Chaer et al. 1997 §V.D (steps 2 and 3)."""
         N, n = len(self.names), self._n
-        self._P = _stack(P, N, (n, n), "P")
-        self._x = _stack(x, N, (n,), "x")
+        self._Pw[:, :n, :n] = _stack(P, N, (n, n), "P")
+        self._xw[:, :n] = _stack(x, N, (n,), "x")
 
     def _processes_mask(self, kind: str) -> np.ndarray:
         mask = self._masks.get(kind)
@@ -184,7 +214,7 @@ class LinearFilterBank:
         processed = np.empty(N, dtype=bool)
         if not (z.dtype == np.float64 and z.flags.c_contiguous):
             z = np.ascontiguousarray(z, dtype=float)
-        linear_step(self.F, self._FT, self.Q, self.H, self.R, self._x, self._P, z, self.active,
+        linear_step(self._Fw, self._FTw, self._Qw, self._Hw, self.R, self._xw, self._Pw, z, self.active,
                     self._processes_mask(kind), self._gate, predict, residual, S, chi2, processed)
         self._updates += 1
         self.t = float(t)

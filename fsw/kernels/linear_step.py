@@ -87,7 +87,7 @@ def linear_step(F, FT, Q, H, R, x, P, z, active, does, gate, predict, residual, 
             for k in range(n):
                 xk = x[i, k]
                 for a in range(n):
-                    xb[a] += F[i, a, k] * xk
+                    xb[a] += FT[i, k, a] * xk
         else:
             for a in range(n):
                 xb[a] = x[i, a]
@@ -152,21 +152,20 @@ def linear_step(F, FT, Q, H, R, x, P, z, active, does, gate, predict, residual, 
         for a in range(n):
             for b in range(n):
                 X[a, b] = 0.0
-                XT[a, b] = 0.0
             for j in range(m):
                 g = KT[j, a]
-                h = H[i, j, a]
                 for b in range(n):
                     X[a, b] -= g * H[i, j, b]
-                    XT[a, b] -= h * KT[j, b]
             X[a, a] += 1.0
-            XT[a, a] += 1.0
+        for a in range(n):
+            for b in range(n):
+                XT[a, b] = X[b, a]
         for a in range(n):
             acc[a] = 0.0
         for k in range(n):
             xk = xb[k]
             for a in range(n):
-                acc[a] += X[a, k] * xk
+                acc[a] += XT[k, a] * xk
         for j in range(m):
             zj = z[j]
             for a in range(n):
