@@ -135,6 +135,25 @@ def test_bad_input_is_rejected_before_touching_state_and_counted():
     assert rec.seq == 5 and rec.kind == "generic-linear"
 
 
+def test_measurement_noise_must_be_symmetric_positive_definite():
+    """S = HP̄Hᵀ + R is inverted without checks: an R that could make it singular is refused at
+    the door, at construction and when it is changed, and the bank is left as it was."""
+    F, Q, H, R = _system(N=2)
+    n = F.shape[1]
+    for bad in (np.zeros((2, 2)), np.diag([1.0, -1.0]), np.array([[1.0, 0.5], [0.0, 1.0]])):
+        with pytest.raises(ValueError, match="R must be"):
+            LinearFilterBank(["a", "b"], F, Q, H, bad, np.zeros(n), np.eye(n))
+    bank = LinearFilterBank(["a", "b"], F, Q, H, R, np.zeros(n), np.eye(n))
+    before = bank.R.copy()
+    with pytest.raises(ValueError, match="positive definite"):
+        bank.set_measurement_noise("a", np.zeros((2, 2)))
+    np.testing.assert_array_equal(bank.R, before)
+    # even with a zero prior (S = R) the step is well defined
+    zero = LinearFilterBank(["a", "b"], F, np.zeros_like(Q), H, R, np.zeros(n), np.zeros((n, n)))
+    rec = zero.step(np.array([1.0, -1.0]))
+    assert np.all(np.isfinite(rec.chi2)) and np.all(np.isfinite(zero.P))
+
+
 def test_weighted_and_best_estimates():
     F, Q, H, R = _system(N=2)
     n = F.shape[1]

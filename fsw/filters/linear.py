@@ -32,6 +32,21 @@ _KIND = GENERIC_LINEAR.name
 linear_step = on_first_call(globals(), "linear_step", "fsw.kernels.linear_step")
 
 
+def _noise_covariances(R: np.ndarray, name: str) -> np.ndarray:
+    """``R`` (N, m, m) checked symmetric (to rounding) and positive definite, and made exactly
+    symmetric. Positive definite R keeps S = H P̄ Hᵀ + R invertible whatever P̄ is; the step
+    inverts it without further checks."""
+    scale = np.abs(R).max(axis=(1, 2), keepdims=True)
+    if np.any(np.abs(R - R.transpose(0, 2, 1)) > 1e-12 * scale):
+        raise ValueError(f"{name} must be symmetric")
+    R = 0.5 * (R + R.transpose(0, 2, 1))
+    try:
+        np.linalg.cholesky(R)
+    except np.linalg.LinAlgError:
+        raise ValueError(f"{name} must be positive definite") from None
+    return R
+
+
 def _padded_width(n: int) -> int:
     """n rounded up to a multiple of 8 from 8 on. The zero rows and columns stay zero through a
     step and add only zero terms to its sums; in return the step's loops run whole vectors (for
@@ -101,7 +116,7 @@ class LinearFilterBank:
         self.F[:] = _stack(F, N, (n, n), "F")
         self.Q[:] = _stack(Q, N, (n, n), "Q")
         self.H[:] = _stack(H, N, (m, n), "H")
-        self.R = _stack(R, N, (m, m), "R")
+        self.R = _noise_covariances(_stack(R, N, (m, m), "R"), "R")
         self._FTw = np.ascontiguousarray(self._Fw.transpose(0, 2, 1))
         self._xw[:, :n] = _stack(x0, N, (n,), "x0")
         self._Pw[:, :n, :n] = _stack(P0, N, (n, n), "P0")
@@ -168,7 +183,7 @@ class LinearFilterBank:
         self.Q[self.index(name)] = _stack(Q, 1, self.Q.shape[1:], "Q")[0]
 
     def set_measurement_noise(self, name: str, R: ArrayLike) -> None:
-        self.R[self.index(name)] = _stack(R, 1, self.R.shape[1:], "R")[0]
+        self.R[self.index(name)] = _noise_covariances(_stack(R, 1, self.R.shape[1:], "R"), "R")[0]
 
     def reinitialise(self, x: ArrayLike, P: ArrayLike) -> None:
         """Restart every filter from state ``x`` and covariance ``P`` (shared or per filter): what
