@@ -106,16 +106,15 @@ class LinearFilterBank:
         n = np.shape(np.asarray(x0))[-1]
         m = np.shape(np.asarray(H))[-2]
         # The step runs on states padded with zeros to a width its loops vectorise over
-        # (_padded_width); F, Q, H, x and P are views of the first n rows and columns.
-        # (_padded_width); F, Q, H, x and P are views of the first n rows and columns, made on
-        # access (a view kept in an attribute would come back from a pickle as a copy).
+        # (_padded_width); F, Q, H, x and P are read-only views of the first n rows and columns,
+        # made on access (a view kept in an attribute would come back from a pickle as a copy).
         w = _padded_width(n)
         self._n = n
         self._Fw, self._Qw, self._Pw = (np.zeros((N, w, w)) for _ in range(3))
         self._Hw, self._xw = np.zeros((N, m, w)), np.zeros((N, w))
-        self.F[:] = _stack(F, N, (n, n), "F")
-        self.Q[:] = _stack(Q, N, (n, n), "Q")
-        self.H[:] = _stack(H, N, (m, n), "H")
+        self._Fw[:, :n, :n] = _stack(F, N, (n, n), "F")
+        self._Qw[:, :n, :n] = _stack(Q, N, (n, n), "Q")
+        self._Hw[:, :, :n] = _stack(H, N, (m, n), "H")
         self.R = _noise_covariances(_stack(R, N, (m, m), "R"), "R")
         self._FTw = np.ascontiguousarray(self._Fw.transpose(0, 2, 1))
         self._xw[:, :n] = _stack(x0, N, (n,), "x0")
@@ -155,18 +154,18 @@ class LinearFilterBank:
 
     @property
     def F(self) -> np.ndarray:
-        """Transition matrices, (N, n, n) (a view: the filters' own)."""
-        return self._Fw[:, : self._n, : self._n]
+        """Transition matrices, (N, n, n) (read-only: the step also keeps their transposes)."""
+        return _read_only(self._Fw[:, : self._n, : self._n])
 
     @property
     def Q(self) -> np.ndarray:
-        """Process noise covariances, (N, n, n) (a view: the filters' own; :meth:`set_process_noise`)."""
-        return self._Qw[:, : self._n, : self._n]
+        """Process noise covariances, (N, n, n) (read-only: :meth:`set_process_noise` changes them)."""
+        return _read_only(self._Qw[:, : self._n, : self._n])
 
     @property
     def H(self) -> np.ndarray:
-        """Measurement matrices, (N, m, n) (a view: the filters' own)."""
-        return self._Hw[:, :, : self._n]
+        """Measurement matrices, (N, m, n) (read-only)."""
+        return _read_only(self._Hw[:, :, : self._n])
 
     # -- configuration at run time ---------------------------------------------------------
     def index(self, name: str) -> int:
@@ -180,7 +179,8 @@ class LinearFilterBank:
         self._all_active = bool(self.active.all())
 
     def set_process_noise(self, name: str, Q: ArrayLike) -> None:
-        self.Q[self.index(name)] = _stack(Q, 1, self.Q.shape[1:], "Q")[0]
+        n = self._n
+        self._Qw[self.index(name), :n, :n] = _stack(Q, 1, (n, n), "Q")[0]
 
     def set_measurement_noise(self, name: str, R: ArrayLike) -> None:
         self.R[self.index(name)] = _noise_covariances(_stack(R, 1, self.R.shape[1:], "R"), "R")[0]
