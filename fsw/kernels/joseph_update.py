@@ -24,6 +24,28 @@ configure_cache_dir()
 stamp_with_all_kernel_sources()
 
 
+@njit(cache=True)
+def innovation_covariance(HP, H, R, S, Sinv):
+    """S = H P̄ Hᵀ + R of one filter from H P̄ (m, n), H (m, n) and R (m, m), and S⁻¹: 1/S for
+    m = 1, the adjugate over the determinant for m = 2, LAPACK's inverse beyond. Each sum runs
+    over k in ascending order from 0.0."""
+    m, n = HP.shape
+    for j in range(m):
+        for l in range(m):
+            s = 0.0
+            for k in range(n):
+                s += HP[j, k] * H[l, k]
+            S[j, l] = s + R[j, l]
+    if m == 1:
+        Sinv[0, 0] = 1.0 / S[0, 0]
+    elif m == 2:
+        a_, b_, c_, d_ = S[0, 0], S[0, 1], S[1, 0], S[1, 1]
+        det = a_ * d_ + b_ * (-c_)  # first row · adjugate's first column
+        Sinv[0, 0], Sinv[0, 1], Sinv[1, 0], Sinv[1, 1] = d_ / det, -b_ / det, -c_ / det, a_ / det
+    else:
+        Sinv[:, :] = np.linalg.inv(S)
+
+
 @njit("void(float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[::1], "
       "float64[:, ::1], boolean[::1], float64[::1], float64[:, ::1], float64[:, ::1], float64[:, :, ::1], "
       "float64[:, :, ::1], float64[::1], boolean[::1])", cache=True)
@@ -63,18 +85,7 @@ def joseph_update(x, P, H, R, y, y_pred, does, gate, residual, x_out, P_out, S_o
                     HPt[j, a] += P[i, a, k] * h
                 for a in range(n):
                     HP[j, a] += h * P[i, k, a]
-        for j in range(m):
-            for l in range(m):
-                s = 0.0
-                for k in range(n):
-                    s += HP[j, k] * H[i, l, k]
-                S_out[i, j, l] = s + R[i, j, l]
-        if m == 1:
-            Sinv[0, 0] = 1.0 / S_out[i, 0, 0]
-        else:
-            a_, b_, c_, d_ = S_out[i, 0, 0], S_out[i, 0, 1], S_out[i, 1, 0], S_out[i, 1, 1]
-            det = a_ * d_ + b_ * (-c_)  # first row · adjugate's first column
-            Sinv[0, 0], Sinv[0, 1], Sinv[1, 0], Sinv[1, 1] = d_ / det, -b_ / det, -c_ / det, a_ / det
+        innovation_covariance(HP, H[i], R[i], S_out[i], Sinv)
         # G = S⁻¹ [HP̄, z̄, S]
         for j in range(m):
             for c in range(w):

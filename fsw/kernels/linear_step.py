@@ -29,8 +29,8 @@ from the third on.
 The four n × n products of a filter (F P, (F P) Fᵀ, X P̄, (X P̄) Xᵀ) go to BLAS through
 ``np.dot``, with the right-hand operands Fᵀ and Xᵀ formed contiguous (numba copies a transposed
 operand: 570 instead of 265 ns a 15 × 15 product); everything of width m (H P̄, S, the gain,
-χ²) is written out, with the loops that do not sum innermost. S⁻¹ is 1/S for m = 1, the
-adjugate over the determinant for m = 2, LAPACK's inverse beyond.
+χ²) is written out, with the loops that do not sum innermost; S and S⁻¹ as the EKF's update
+forms them (:func:`fsw.kernels.joseph_update.innovation_covariance`).
 """
 
 from __future__ import annotations
@@ -42,6 +42,21 @@ from fsw.kernels import configure_cache_dir, stamp_with_all_kernel_sources
 
 configure_cache_dir()
 stamp_with_all_kernel_sources()
+
+from fsw.kernels.joseph_update import innovation_covariance  # noqa: E402
+
+
+@njit(cache=True)
+def _transposed_times(A, B, out):
+    """out = Aᵀ B for A (m, m) and B (m, n), the loop over n innermost."""
+    m, n = B.shape
+    for l in range(m):
+        for b in range(n):
+            out[l, b] = 0.0
+        for j in range(m):
+            g = A[j, l]
+            for b in range(n):
+                out[l, b] += g * B[j, b]
 
 
 @njit("void(float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], "
@@ -104,20 +119,7 @@ def linear_step(F, FT, Q, H, R, x, P, z, active, does, gate, predict, residual, 
                 for b in range(n):
                     HP[j, b] += h * Pb[k, b]
             residual[i, j] = z[j] - yh
-        for j in range(m):
-            for l in range(m):
-                s = 0.0
-                for k in range(n):
-                    s += HP[j, k] * H[i, l, k]
-                S_out[i, j, l] = s + R[i, j, l]
-        if m == 1:
-            Sinv[0, 0] = 1.0 / S_out[i, 0, 0]
-        elif m == 2:
-            a_, b_, c_, d_ = S_out[i, 0, 0], S_out[i, 0, 1], S_out[i, 1, 0], S_out[i, 1, 1]
-            det = a_ * d_ - b_ * c_
-            Sinv[0, 0], Sinv[0, 1], Sinv[1, 0], Sinv[1, 1] = d_ / det, -b_ / det, -c_ / det, a_ / det
-        else:
-            Sinv[:, :] = np.linalg.inv(S_out[i])
+        innovation_covariance(HP, H[i], R[i], S_out[i], Sinv)
         chi2 = 0.0
         for j in range(m):
             s = 0.0
@@ -134,20 +136,8 @@ def linear_step(F, FT, Q, H, R, x, P, z, active, does, gate, predict, residual, 
                     P[i, a, b] = Pb[a, b]
             continue
         # Kᵀ = S⁻ᵀ H P̄ (P̄ Hᵀ = (H P̄)ᵀ up to P̄'s rounding asymmetry), (K R)ᵀ = Rᵀ Kᵀ
-        for l in range(m):
-            for b in range(n):
-                KT[l, b] = 0.0
-            for j in range(m):
-                g = Sinv[j, l]
-                for b in range(n):
-                    KT[l, b] += g * HP[j, b]
-        for l in range(m):
-            for b in range(n):
-                KRT[l, b] = 0.0
-            for j in range(m):
-                g = R[i, j, l]
-                for b in range(n):
-                    KRT[l, b] += g * KT[j, b]
+        _transposed_times(Sinv, HP, KT)
+        _transposed_times(R[i], KT, KRT)
         # X = I − K H and Xᵀ (BLAS would copy a transposed operand); x⁺ = X x̄ + K z
         for a in range(n):
             for b in range(n):
