@@ -27,8 +27,9 @@ stamp_with_all_kernel_sources()
 @njit(cache=True)
 def innovation_covariance(HP, H, R, S, Sinv):
     """S = H P̄ Hᵀ + R of one filter from H P̄ (m, n), H (m, n) and R (m, m), and S⁻¹: 1/S for
-    m = 1, the adjugate over the determinant for m = 2, LAPACK's inverse beyond. Each sum runs
-    over k in ascending order from 0.0."""
+    m = 1, the adjugate over the determinant for m = 2 (``Sinv`` is left as it is for larger m:
+    the caller inverts S, in a branch of its own). Each sum runs over k in ascending order from
+    0.0."""
     m, n = HP.shape
     for j in range(m):
         for l in range(m):
@@ -42,8 +43,6 @@ def innovation_covariance(HP, H, R, S, Sinv):
         a_, b_, c_, d_ = S[0, 0], S[0, 1], S[1, 0], S[1, 1]
         det = a_ * d_ + b_ * (-c_)  # first row · adjugate's first column
         Sinv[0, 0], Sinv[0, 1], Sinv[1, 0], Sinv[1, 1] = d_ / det, -b_ / det, -c_ / det, a_ / det
-    else:
-        Sinv[:, :] = np.linalg.inv(S)
 
 
 @njit("void(float64[:, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[:, :, ::1], float64[::1], "
