@@ -115,7 +115,7 @@ class LinearFilterBank:
         self._Fw[:, :n, :n] = _stack(F, N, (n, n), "F")
         self._Qw[:, :n, :n] = _stack(Q, N, (n, n), "Q")
         self._Hw[:, :, :n] = _stack(H, N, (m, n), "H")
-        self.R = _noise_covariances(_stack(R, N, (m, m), "R"), "R")
+        self._R = _noise_covariances(_stack(R, N, (m, m), "R"), "R")
         self._FTw = np.ascontiguousarray(self._Fw.transpose(0, 2, 1))
         self._xw[:, :n] = _stack(x0, N, (n,), "x0")
         self._Pw[:, :n, :n] = _stack(P0, N, (n, n), "P0")
@@ -167,6 +167,12 @@ class LinearFilterBank:
         """Measurement matrices, (N, m, n) (read-only)."""
         return _read_only(self._Hw[:, :, : self._n])
 
+    @property
+    def R(self) -> np.ndarray:
+        """Measurement noise covariances, (N, m, m) (read-only: :meth:`set_measurement_noise`
+        changes them, checked)."""
+        return _read_only(self._R)
+
     # -- configuration at run time ---------------------------------------------------------
     def index(self, name: str) -> int:
         try:
@@ -183,7 +189,7 @@ class LinearFilterBank:
         self._Qw[self.index(name), :n, :n] = _stack(Q, 1, (n, n), "Q")[0]
 
     def set_measurement_noise(self, name: str, R: ArrayLike) -> None:
-        self.R[self.index(name)] = _noise_covariances(_stack(R, 1, self.R.shape[1:], "R"), "R")[0]
+        self._R[self.index(name)] = _noise_covariances(_stack(R, 1, self._R.shape[1:], "R"), "R")[0]
 
     def reinitialise(self, x: ArrayLike, P: ArrayLike) -> None:
         """Restart every filter from state ``x`` and covariance ``P`` (shared or per filter): what
@@ -229,7 +235,7 @@ class LinearFilterBank:
         processed = np.empty(N, dtype=bool)
         if not (z.dtype == np.float64 and z.flags.c_contiguous):
             z = np.ascontiguousarray(z, dtype=float)
-        linear_step(self._Fw, self._FTw, self._Qw, self._Hw, self.R, self._xw, self._Pw, z, self.active,
+        linear_step(self._Fw, self._FTw, self._Qw, self._Hw, self._R, self._xw, self._Pw, z, self.active,
                     self._processes_mask(kind), self._gate, predict, residual, S, chi2, processed)
         self._updates += 1
         self.t = float(t)
@@ -239,7 +245,7 @@ class LinearFilterBank:
     def process(self, meas: Measurement) -> BankRecord:
         """Predict one step and update with an ICD ``Measurement`` of kind ``generic-linear``."""
         try:
-            value, _ = screen(meas, {kind: self.H.shape[1] for kind in self.KINDS})
+            value, _ = screen(meas, {kind: self._z_shape[0] for kind in self.KINDS})
         except MeasurementRejected as exc:
             self.rejected[exc.reason] += 1
             raise

@@ -48,12 +48,12 @@ from fsw.kernels.joseph_update import innovation_covariance  # noqa: E402
 
 @njit(cache=True)
 def _transposed_times(A, B, out):
-    """out = Aᵀ B for A (m, m) and B (m, n), the loop over n innermost."""
-    m, n = B.shape
-    for l in range(m):
+    """out = Aᵀ B for A (k, p) and B (k, n) of a small k, the loop over n innermost."""
+    k, n = B.shape
+    for l in range(A.shape[1]):
         for b in range(n):
             out[l, b] = 0.0
-        for j in range(m):
+        for j in range(k):
             g = A[j, l]
             for b in range(n):
                 out[l, b] += g * B[j, b]
@@ -141,13 +141,10 @@ def linear_step(F, FT, Q, H, R, x, P, z, active, does, gate, predict, residual, 
         _transposed_times(Sinv, HP, KT)
         _transposed_times(R[i], KT, KRT)
         # X = I − K H and Xᵀ (BLAS would copy a transposed operand); x⁺ = X x̄ + K z
+        _transposed_times(KT, H[i], X)  # K H
         for a in range(n):
             for b in range(n):
-                X[a, b] = 0.0
-            for j in range(m):
-                g = KT[j, a]
-                for b in range(n):
-                    X[a, b] -= g * H[i, j, b]
+                X[a, b] = 0.0 - X[a, b]
             X[a, a] += 1.0
         for a in range(n):
             for b in range(n):
