@@ -2,12 +2,13 @@
 that span the leg just flown, counts that began before it (a range measurement came between),
 counts at the epoch the bank is at already, spanning the leg that brought it there or begun
 before it; range measurements; and both kinds with transmit epochs that need another station
-node."""
+node, or the first node of a station's pass."""
 
 from __future__ import annotations
 
 import dataclasses
 import inspect
+import math
 from collections import Counter
 from dataclasses import dataclass
 
@@ -33,12 +34,15 @@ class Stream:
 
 
 #: What each stream exercises: the synthetic one has a range measurement between Doppler counts
-#: (and a station node boundary), the simulator's a range measurement at a count's time tag.
+#: (and a station node boundary), the simulator's a range measurement at a count's time tag. In
+#: each, the first measurement of some station's pass finds the last light-time solution another
+#: station's: the step then has no node at all and looks it up after the reception epochs.
 CASES = {
-    "synthetic": ("leg flown, start from it", "leg flown, start propagated back", "another station node"),
-    "simulator": ("leg flown, start from it", "leg held, start from it"),
+    "synthetic": ("leg flown, start from it", "leg flown, start propagated back", "another station node",
+                  "first of a pass"),
+    "simulator": ("leg flown, start from it", "leg held, start from it", "range: first of a pass"),
     # no count in the 20 minutes before every fourth range: its transmit epoch is past the last node's reach
-    "synthetic with gaps": ("range: another station node",),
+    "synthetic with gaps": ("range: another station node", "first of a pass", "range: first of a pass"),
 }
 
 
@@ -65,6 +69,8 @@ def _bank(run, name: str) -> FilterBank:
 
 _PARAMETERS = list(inspect.signature(doppler_step.py_func).parameters)
 _FLY, _FROM_LEG = _PARAMETERS.index("fly"), _PARAMETERS.index("from_leg")
+_T_GRID = _PARAMETERS.index("t_grid")
+_RANGE_T_GRID = list(inspect.signature(range_step.py_func).parameters).index("t_grid")
 
 
 def _fly(run, name: str, commands, monkeypatch, fused: bool):
@@ -77,6 +83,7 @@ def _fly(run, name: str, commands, monkeypatch, fused: bool):
                                                                       ", start propagated back")
                 statuses[case] += 1
                 statuses["another station node"] += status
+                statuses["first of a pass"] += args[_T_GRID] == -math.inf
                 return status
 
             def finished(*args):
@@ -87,6 +94,7 @@ def _fly(run, name: str, commands, monkeypatch, fused: bool):
                 status = range_step(*args)
                 statuses["range"] += 1
                 statuses["range: another station node"] += status
+                statuses["range: first of a pass"] += args[_RANGE_T_GRID] == -math.inf
                 return status
 
             def range_finished(*args):

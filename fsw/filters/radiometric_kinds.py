@@ -126,17 +126,15 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
     and the Joseph update of the filters that ``does`` under their chi-square ``gate`` (inf: no
     editing). Returns (residual, S, chi2, processed) as :meth:`EKFStack.update` does.
 
-    It applies when the station node the last light-time solution used is this station's and the
-    leg to t1 is a plain one (:meth:`EKFStack.plain_leg`) — or the bank is at t1 already with
-    nothing due there (:meth:`EKFStack.at_epoch`); otherwise it returns None with the bank
-    untouched. The count's start comes from the leg just flown, or held (:meth:`EKFStack.held_leg`),
+    It applies when the leg to t1 is a plain one (:meth:`EKFStack.plain_leg`) — or the bank is at
+    t1 already with nothing due there (:meth:`EKFStack.at_epoch`); otherwise it returns None with
+    the bank untouched. The count's start comes from the leg just flown, or held (:meth:`EKFStack.held_leg`),
     when the count spans it, else it is propagated back (as :meth:`EKFStack.count_start` does);
-    transmit epochs that need another table or node are looked up between the two kernels, as
-    :func:`~fsw.models.radiometric.solve_uplinks` looks them up."""
+    transmit epochs that need another table or node — or any node, when the last light-time
+    solution was another station's (the first measurement of a pass) — are looked up between the
+    two kernels, as :func:`~fsw.models.radiometric.solve_uplinks` looks them up."""
     env = stack.env
-    last = env.last_station_node(station)
-    if last is None:
-        return None
+    node, t_grid = _station_node_or_none(env, station)
     t0 = stack.t
     start = t1 - count_s
     prop = stack.propagator
@@ -180,7 +178,7 @@ def doppler_count_step(stack: EKFStack, station: str, t1: float, count_s: float,
     status = doppler_step(fly, t0, t1, x, P, q, *prop.forces, *table, prop.GM, q_leg, from_leg, *back,
                           src, c0, c1, stack.clock_q, stack.snc_psd, z1, Y, x_prop, P_prop,
                           count_s, w.z, w.Yb, w.tt, w.delta,
-                          herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
+                          herm, t_first, step, lo_ok, hi_ok, node, t_grid, OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
                           u.r_sc, u.v_mars, u.t_g, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
                           w.h, w.H, scale, sigma, added, w.R, value, does, gate, *update, first, second, q_new)
     if fly:
@@ -199,12 +197,9 @@ def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.n
     """A range measurement through the bank in compiled code (:mod:`fsw.kernels.radiometric_step`):
     the leg from the bank's epoch to the time tag t1, the prediction of :func:`predict_range`, R
     (``sigma`` times each filter's ``scale``, squared) and the Joseph update, as
-    :func:`doppler_count_step` for a count; None (the bank untouched) unless the station node the
-    last light-time solution used is this station's and the leg is a plain one."""
+    :func:`doppler_count_step` for a count; None (the bank untouched) unless the leg is a plain one."""
     env = stack.env
-    last = env.last_station_node(station)
-    if last is None:
-        return None
+    node, t_grid = _station_node_or_none(env, station)
     flight = stack.plain_flight(t1)
     if flight is None:
         return None
@@ -223,7 +218,7 @@ def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.n
     status = range_step(t0, t1, x, P, q, *prop.forces, *table, prop.GM,
                         stack.state_sources, c0, c1, stack.clock_q, stack.snc_psd, z1, Y, x_prop, P_prop,
                         w.z, w.tt, w.delta,
-                        herm, t_first, step, lo_ok, hi_ok, last[0], last[1], OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
+                        herm, t_first, step, lo_ok, hi_ok, node, t_grid, OMEGA_EARTH_RAD_S, GM_SUN, C_KM_S, 2,
                         u.r_sc, u.v_mars, u.t_g, u.rho, u.ku, u.d_rho_d_v, u.d_rho_d_delta,
                         clock is not None, bias, w.h, w.H, scale, sigma, w.R, value, does, gate, *update, first, second,
                         q_new)
@@ -234,6 +229,20 @@ def range_measurement_step(stack: EKFStack, station: str, t1: float, value: np.n
                      x_prop, P_prop, clock is not None, c0, bias, w.h, w.H, scale, sigma, w.R,
                      value, does, gate, *update, first, second, q_new)
     return _updated(stack, update, q_new)
+
+
+#: No station node: a step handed it at the epoch −∞ stops after the reception epochs (no
+#: transmit epoch lies within 300 s of it), never reading it, and its ``finish`` looks the node
+#: up, as :func:`~fsw.models.radiometric.solve_uplinks` does when it has none. (Writable: the
+#: kernels' signatures take writable arrays.)
+_NO_NODE = np.zeros((4, 3))
+
+
+def _station_node_or_none(env: Environment, station: str) -> tuple[np.ndarray, float]:
+    """The station node the last light-time solution used, and its epoch, if it was this
+    station's; else :data:`_NO_NODE` at −∞ (the first measurement of a station's pass)."""
+    last = env.last_station_node(station)
+    return (_NO_NODE, -math.inf) if last is None else last
 
 
 def _updated(stack: EKFStack, update: tuple[np.ndarray, ...], q_new: np.ndarray
