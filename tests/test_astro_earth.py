@@ -116,8 +116,9 @@ def test_station_velocity_is_smooth_through_a_leap_second():
 
 
 def test_rotation_chain_of_many_epochs_is_that_of_each_epoch():
-    """The chain evaluates the epochs, their ±1 h precession-nutation neighbours and the UT1
-    slope's ±60 s lookups in one array: each epoch's result must be the one it gets alone."""
+    """The chain evaluates the epochs, their ±1 h precession-nutation neighbours (on this
+    10-minute grid most of them grid epochs, evaluated once) and the UT1 slope's ±60 s lookups in
+    one array: each epoch's result must be the one it gets alone."""
     r = stations.station("DSS-43").itrs_at(np.zeros(1))[0]
     t = utc_iso_to_tdb("2018-11-20T00:00:00") + 600.0 * np.arange(30) + 17.25
     pos, vel, pole = earth.itrs_to_gcrs_state_and_pole(r, t)
