@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from fsw.filters import kinds
-from fsw.filters.combine import best_index, normalised_weights, weighted_estimate
+from fsw.filters.combine import best_index, normalised_weights
 from fsw.filters.adaptive_q import AdaptiveQCounters
 from fsw.filters.config import BankConfig
 from fsw.filters.ekf import EKFStack
@@ -36,6 +36,7 @@ from fsw.filters.kind_model import KindModel
 from fsw.filters.record import BankRecord
 from fsw.filters.validate import screen
 from fsw.interface.messages import Measurement
+from fsw.kernels.mixture_estimate import mixture_estimate
 from fsw.models.environment import Environment
 from fsw.models.optical import GeometryError
 
@@ -97,11 +98,14 @@ class FilterBank:
 
     def filter(self, name: str) -> FilterEstimate:
         """Estimate of one filter, in its own layout (blocks it does not estimate left out)."""
-        i = self.index(name)
+        return self._estimate_of(self.index(name), name)
+
+    def _estimate_of(self, i: int, name: str) -> FilterEstimate:
         names, cols, full = self._layouts[i]
-        P = self.stack.P[i]
-        return FilterEstimate(name, self.t, names, self.stack.x[i, cols],
-                              P.copy() if full else P[cols[:, None], cols])
+        st = self.stack
+        if full:
+            return FilterEstimate(name, self.t, names, st.x[i].copy(), st.P[i].copy())
+        return FilterEstimate(name, self.t, names, st.x[i, cols], st.P[i][cols[:, None], cols])
 
     def x(self, name: str) -> np.ndarray:
         return self.filter(name).x
@@ -300,15 +304,15 @@ class FilterBank:
     def estimates(self, weights: ArrayLike | None = None) -> dict[str, FilterEstimate]:
         """Every filter's estimate; with gating ``weights`` also 'combined' (weighted sum over
         the states all contributing filters estimate, mixture covariance) and 'best'."""
-        out = {name: self.filter(name) for name in self.names}
+        out = {name: self._estimate_of(i, name) for i, name in enumerate(self.names)}
         if weights is None:
             return out
         w = normalised_weights(np.asarray(weights, dtype=float), self.active)
         names, rows, cols = self._combined_selection(w > 0.0)
-        # one gather each of the contributing filters' common states (the values a boolean
-        # selection of filters, then of states, copies out)
+        # the contributing filters' common states, gathered inside the kernel
         st = self.stack
-        x_opt, P_opt = weighted_estimate(st.x[rows[:, None], cols], st.P[rows[:, None, None], cols[:, None], cols], w[rows])
+        x_opt, P_opt = np.empty(cols.size), np.empty((cols.size, cols.size))
+        mixture_estimate(np.ascontiguousarray(st.x), np.ascontiguousarray(st.P), w, rows, cols, x_opt, P_opt)
         out["combined"] = FilterEstimate("combined", self.t, names, x_opt, P_opt)
         out["best"] = out[self.names[best_index(w, self.active)]]
         return out
