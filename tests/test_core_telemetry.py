@@ -129,3 +129,28 @@ def test_news_is_a_change_of_flag_class_or_declaration():
     assert rep.news(_state(3.0, True, declared=3.0, cls="unknown"))
     assert rep.news(_state(4.0, True, declared=3.0, cls="optical-measurement"))
     assert not rep.news(_state(5.0, True, declared=3.0, cls="optical-measurement"))
+
+
+def test_best_estimate_is_a_filter_estimate_relabelled():
+    """Each hour's "best" Estimate is, field for field, the Estimate of one of the filters sent
+    at the same epoch, under its own label (the core builds it once and relabels it)."""
+    import dataclasses
+
+    from tools.bench.core import scenario
+    from tools.inprocess import run_in_process
+
+    out = run_in_process(scenario(span_days=1.0), 1)
+    by_t: dict[float, dict[str, m.Estimate]] = {}
+    for topic, msg in out.messages:
+        if topic.startswith("fsw/estimate/"):
+            by_t.setdefault(msg.t_s, {})[topic.rsplit("/", 1)[1]] = msg
+    checked = 0
+    for t, msgs in by_t.items():
+        best = msgs.get("best")
+        if best is None:
+            continue
+        assert best.filter == "best"
+        twins = [label for label in FILTERS if dataclasses.replace(msgs[label], filter="best") == best]
+        assert len(twins) >= 1, t
+        checked += 1
+    assert checked >= 20

@@ -460,10 +460,17 @@ class FswCore:
         if "best" in ests:
             ests["best"] = ests[self._best_filter(ests, weights)]
         tel = self.config.telemetry
+        # "best" is one of the filters' own estimates: its message is that filter's, relabelled
+        made: dict[int, m.Estimate] = {}
         for label, est in ests.items():
             if label in self.filters and not tel.per_filter_estimates:
                 continue
-            self._emit(f"{topics.FSW_ESTIMATE}/{label}", estimate_message(est, label, tel.full_covariance))
+            same = made.get(id(est))
+            if same is None:
+                msg = made[id(est)] = estimate_message(est, label, tel.full_covariance)
+            else:
+                msg = dataclasses.replace(same, filter=label)
+            self._emit(f"{topics.FSW_ESTIMATE}/{label}", msg)
         self._emit_bplanes(t, {k: v for k, v in ests.items() if k not in self.filters or tel.per_filter_estimates})
 
     def _emit_residuals(self, t: float, force: bool) -> None:
