@@ -32,6 +32,10 @@ import numpy as np
 from fsw.filters.record import BankRecord
 from fsw.interface import typed
 from fsw.interface.frozen import fast_init
+from fsw.kernels import on_first_call
+from fsw.kernels.codes import RECORD_NEGATIVE_CHI2, RECORD_NON_FINITE, RECORD_OK
+
+record_values_status = on_first_call(globals(), "record_values_status", "fsw.kernels.record_check")
 
 
 class GatingError(ValueError):
@@ -191,39 +195,57 @@ def reenter_probabilities(p: np.ndarray, old_mask: np.ndarray, new_mask: np.ndar
     return out
 
 
+def _values_status(res: np.ndarray, S: np.ndarray, chi2: np.ndarray) -> int:
+    """:func:`~fsw.kernels.record_check.record_values_status` of arrays of any dtype and layout:
+    anything that is not a number counts as non-finite."""
+    chi2_values = chi2.tolist()
+    try:
+        finite = all(map(math.isfinite, res.ravel().tolist() + S.ravel().tolist() + chi2_values))
+    except TypeError:  # not numbers at all
+        return RECORD_NON_FINITE
+    if not finite:
+        return RECORD_NON_FINITE
+    return RECORD_NEGATIVE_CHI2 if min(chi2_values) < 0.0 else RECORD_OK
+
+
 def check_record(record: BankRecord, filters: tuple[str, ...]) -> np.ndarray:
     """Validate a bank record for networks over ``filters``; return its active mask (N,) bool.
 
     The record's filter names must be ``filters`` in order, its arrays of the shapes it declares,
     finite, with non-negative chi-squares — otherwise :class:`GatingInputError`. Checked once per
     record and shared by every network of the bank (:meth:`GatingNetwork.update_checked`); the
-    arrays are a few numbers, so Python on their values is cheaper than numpy reductions.
+    numbers are read in compiled code (:mod:`fsw.kernels.record_check`), arrays of another dtype
+    or layout than the bank's one by one in Python.
     """
     if not isinstance(record, BankRecord):
         raise GatingInputError(f"expected a BankRecord, got {type(record).__name__}")
     if record.filters is not filters and tuple(record.filters) != filters:
         raise GatingInputError(f"record filters {tuple(record.filters)!r} differ from the bank {filters!r}")
     n_f = len(filters)
-    res = np.asarray(record.residual)
+    res, S, chi2, processed = record.residual, record.S, record.chi2, record.processed
+    # the bank's own arrays as they are (np.asarray of an array is the array: only the type is tested)
+    if type(res) is not np.ndarray:
+        res = np.asarray(res)
     if res.ndim != 2 or res.shape[0] != n_f or res.shape[1] < 1:
         raise GatingInputError(f"residual must have shape ({n_f}, n), got {res.shape}")
     n = res.shape[1]
-    S = np.asarray(record.S)
+    if type(S) is not np.ndarray:
+        S = np.asarray(S)
     if S.shape != (n_f, n, n):
         raise GatingInputError(f"S must have shape ({n_f}, {n}, {n}), got {S.shape}")
-    chi2 = np.asarray(record.chi2)
-    processed = np.asarray(record.processed)
+    if type(chi2) is not np.ndarray:
+        chi2 = np.asarray(chi2)
+    if type(processed) is not np.ndarray:
+        processed = np.asarray(processed)
     if chi2.shape != (n_f,) or processed.shape != (n_f,):
         raise GatingInputError(f"chi2 and processed must have shape ({n_f},)")
-    chi2_values = chi2.tolist()
     try:
-        # one pass over the record's few numbers
-        finite = all(map(math.isfinite, res.ravel().tolist() + S.ravel().tolist() + chi2_values))
-    except TypeError:  # not numbers at all
-        finite = False
-    if not finite:
+        status = record_values_status(res, S, chi2)
+    except TypeError:  # not C-ordered float64 arrays (the bank makes no others): tested value by value
+        status = _values_status(res, S, chi2)
+    if status == RECORD_NON_FINITE:
         raise GatingInputError(f"non-finite residual, S or chi2 in record seq={record.seq}")
-    if min(chi2_values) < 0.0:
+    if status == RECORD_NEGATIVE_CHI2:
         raise GatingInputError(f"negative chi-square in record seq={record.seq}")
     if not math.isfinite(record.t):
         raise GatingInputError("non-finite time tag")

@@ -12,3 +12,7 @@ MAGILL_OK, MAGILL_NOT_POSITIVE_DEFINITE, MAGILL_UNHANDLED_DIMENSION = 0, 1, 2
 #: :func:`fsw.kernels.bplane.bplane_complex_step`: done; the state has no B-plane (bound, radial,
 #: asymptote along the pole, or a non-finite result).
 BPLANE_OK, BPLANE_DEGENERATE = 0, 1
+
+#: :func:`fsw.kernels.record_check.record_values_status`: every number finite and every
+#: chi-square ≥ 0; a NaN or an infinity somewhere; a negative chi-square.
+RECORD_OK, RECORD_NON_FINITE, RECORD_NEGATIVE_CHI2 = 0, 1, 2
