@@ -45,6 +45,9 @@ import numpy as np
 from fsw.filters.record import BankRecord
 from fsw.gating.base import GatingNetwork, InvalidParameterError, WeightsUpdate, reenter_probabilities
 from fsw.interface.typed import spec
+from fsw.kernels import on_first_call
+
+chi2_batch_sums = on_first_call(globals(), "chi2_batch_sums", "fsw.kernels.chi2_batch")
 
 if TYPE_CHECKING:  # the two-sided network derives from this one
     from fsw.gating.chi2_two_sided import Chi2TwoSidedParams
@@ -229,11 +232,9 @@ class Chi2Network(GatingNetwork):
         self._last_seq = -1
 
     def _clear_batch(self) -> None:
-        n = len(self.filters)
         self._count = 0
-        # Per-filter sums over the batch as Python floats: four sums of N numbers per measurement
-        # cost less in Python than in numpy, and the additions are the same IEEE additions.
-        self._sums = [[0.0] * n for _ in range(4)]  # chi2 processed, dim processed, chi2 / dim unprocessed
+        # rows: chi2 processed, dim processed, chi2 / dim unprocessed (fsw.kernels.chi2_batch)
+        self._sums = np.zeros((4, len(self.filters)))
 
     @property
     def _chi2_proc(self) -> np.ndarray:
@@ -259,14 +260,15 @@ class Chi2Network(GatingNetwork):
 
     def _update(self, record: BankRecord, active: np.ndarray) -> WeightsUpdate | None:
         n = float(record.n)
-        chi2_proc, dim_proc, chi2_unproc, dim_unproc = self._sums
-        for i, (done, c) in enumerate(zip(record.processed.tolist(), record.chi2.tolist())):
-            if done:
-                chi2_proc[i] += c
-                dim_proc[i] += n
-            else:
-                chi2_unproc[i] += c
-                dim_unproc[i] += n
+        try:
+            chi2_batch_sums(record.chi2, record.processed, n, self._sums)
+        except TypeError:  # not the bank's C-ordered float64 and bool arrays: the same additions in Python
+            sums = self._sums
+            for i, (done, c) in enumerate(zip(np.asarray(record.processed, dtype=bool).tolist(),
+                                              np.asarray(record.chi2, dtype=float).tolist())):
+                row = 0 if done else 2
+                sums[row, i] += c
+                sums[row + 1, i] += n
         self._count += 1
         self._last_t, self._last_seq = float(record.t), int(record.seq)
         if self._count >= self.params.batch_size:
