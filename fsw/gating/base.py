@@ -33,7 +33,7 @@ from fsw.filters.record import BankRecord
 from fsw.interface import typed
 from fsw.interface.frozen import fast_init
 from fsw.kernels import on_first_call
-from fsw.kernels.codes import RECORD_NEGATIVE_CHI2, RECORD_NON_FINITE, RECORD_OK
+from fsw.kernels.codes import RECORD_NEGATIVE_CHI2, RECORD_NON_FINITE
 
 record_values_status = on_first_call(globals(), "record_values_status", "fsw.kernels.record_check")
 
@@ -197,15 +197,14 @@ def reenter_probabilities(p: np.ndarray, old_mask: np.ndarray, new_mask: np.ndar
 
 def _values_status(res: np.ndarray, S: np.ndarray, chi2: np.ndarray) -> int:
     """:func:`~fsw.kernels.record_check.record_values_status` of arrays of any dtype and layout:
-    anything that is not a number counts as non-finite."""
-    chi2_values = chi2.tolist()
-    try:
-        finite = all(map(math.isfinite, res.ravel().tolist() + S.ravel().tolist() + chi2_values))
-    except TypeError:  # not numbers at all
-        return RECORD_NON_FINITE
-    if not finite:
-        return RECORD_NON_FINITE
-    return RECORD_NEGATIVE_CHI2 if min(chi2_values) < 0.0 else RECORD_OK
+    numbers (bool, integer, float) are copied to the kernel's writable C-ordered float64, anything
+    else (strings, objects) counts as non-finite."""
+    arrays = []
+    for a in (res, S, chi2):
+        if a.dtype.kind not in "biuf":
+            return RECORD_NON_FINITE
+        arrays.append(np.array(a, dtype=np.float64, order="C"))  # a copy: writable, as the signature wants
+    return int(record_values_status(*arrays))
 
 
 def check_record(record: BankRecord, filters: tuple[str, ...]) -> np.ndarray:
@@ -215,7 +214,7 @@ def check_record(record: BankRecord, filters: tuple[str, ...]) -> np.ndarray:
     finite, with non-negative chi-squares — otherwise :class:`GatingInputError`. Checked once per
     record and shared by every network of the bank (:meth:`GatingNetwork.update_checked`); the
     numbers are read in compiled code (:mod:`fsw.kernels.record_check`), arrays of another dtype
-    or layout than the bank's one by one in Python.
+    or layout than the bank's converted first.
     """
     if not isinstance(record, BankRecord):
         raise GatingInputError(f"expected a BankRecord, got {type(record).__name__}")
@@ -241,7 +240,7 @@ def check_record(record: BankRecord, filters: tuple[str, ...]) -> np.ndarray:
         raise GatingInputError(f"chi2 and processed must have shape ({n_f},)")
     try:
         status = record_values_status(res, S, chi2)
-    except TypeError:  # not C-ordered float64 arrays (the bank makes no others): tested value by value
+    except TypeError:  # not C-ordered, writable float64 arrays (the bank makes no others): converted
         status = _values_status(res, S, chi2)
     if status == RECORD_NON_FINITE:
         raise GatingInputError(f"non-finite residual, S or chi2 in record seq={record.seq}")

@@ -262,13 +262,9 @@ class Chi2Network(GatingNetwork):
         n = float(record.n)
         try:
             chi2_batch_sums(record.chi2, record.processed, n, self._sums)
-        except TypeError:  # not the bank's C-ordered float64 and bool arrays: the same additions in Python
-            sums = self._sums
-            for i, (done, c) in enumerate(zip(np.asarray(record.processed, dtype=bool).tolist(),
-                                              np.asarray(record.chi2, dtype=float).tolist())):
-                row = 0 if done else 2
-                sums[row, i] += c
-                sums[row + 1, i] += n
+        except TypeError:  # not the bank's C-ordered float64 and bool arrays: converted to them
+            chi2_batch_sums(np.array(record.chi2, dtype=np.float64, order="C"),
+                            np.array(record.processed, dtype=np.bool_, order="C"), n, self._sums)
         self._count += 1
         self._last_t, self._last_seq = float(record.t), int(record.seq)
         if self._count >= self.params.batch_size:
