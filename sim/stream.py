@@ -14,10 +14,9 @@ run differs from the un-faulted one with the same seed *only* by the fault.
 from __future__ import annotations
 
 import gc
-import heapq
 import math
 from dataclasses import dataclass, field
-from typing import Iterator, cast
+from typing import Iterator
 
 import numpy as np
 
@@ -112,12 +111,28 @@ class SimRun:
     def iter_messages(self) -> Iterator[tuple[str, FaultEvent | Truth | Measurement]]:
         """(topic, message) for every message in time order (fault events, then truth, then
         measurements at equal times). Topics are the bare ``fsw.interface.topics`` names."""
-        faults = ((e.t_s, 0, i, topics.SIM_FAULTS, e) for i, e in enumerate(self.fault_events))
-        truth = ((m.t_s, 1, i, topics.SIM_TRUTH, m) for i, m in enumerate(self.truth))
+        return iter(self.messages())
+
+    def messages(self) -> list[tuple[str, FaultEvent | Truth | Measurement]]:
+        """The (topic, message) pairs of :meth:`iter_messages`, in that order, as one list.
+
+        Ordered by (time, fault/truth/measurement, index) in one sort of the three streams'
+        times; merging them pair by pair cost 0.7 µs a measurement in the loop that feeds the
+        in-process FSW core."""
         t_meas = self.t_true if self.t_true.size == len(self.measurements) else [m.t_s for m in self.measurements]
-        meas = ((float(t), 2, i, topics.SIM_MEASUREMENTS, m) for i, (t, m) in enumerate(zip(t_meas, self.measurements)))
-        for _, _, _, topic, msg in heapq.merge(faults, truth, meas, key=lambda x: (x[0], x[1], x[2])):
-            yield topic, cast("FaultEvent | Truth | Measurement", msg)
+        streams: list[tuple[str, list[FaultEvent] | list[Truth] | list[Measurement], np.ndarray]] = [
+            (topics.SIM_FAULTS, self.fault_events, np.array([e.t_s for e in self.fault_events], dtype=float)),
+            (topics.SIM_TRUTH, self.truth, np.array([m.t_s for m in self.truth], dtype=float)),
+            (topics.SIM_MEASUREMENTS, self.measurements, np.asarray(t_meas, dtype=float)),
+        ]
+        pairs: list[tuple[str, FaultEvent | Truth | Measurement]] = []
+        for topic, msgs, _ in streams:
+            pairs.extend([(topic, msg) for msg in msgs])
+        t = np.concatenate([times for _, _, times in streams])
+        rank = np.concatenate([np.full(len(msgs), k) for k, (_, msgs, _) in enumerate(streams)])
+        # lexsort: the last key first; the concatenation's position is the index within a stream
+        order = np.lexsort((np.arange(t.size), rank, t))
+        return [pairs[i] for i in order.tolist()]
 
     def counts(self) -> dict[str, int]:
         """Number of measurements per kind."""

@@ -119,6 +119,23 @@ def test_iter_messages_is_time_ordered_and_complete(run):
     assert all(times[i] < msgs[first_fault][1].t_s for i in range(first_fault))
 
 
+def test_iter_messages_order_is_time_then_fault_truth_measurement_then_index():
+    """The order written out as its rule (a sort on (time, stream, index) of Python tuples), on a
+    run with ties at every measurement (truth at each one) and fault events."""
+    cfg = SimConfig(trajectory=TrajectoryConfig(span_days=1.0), truth_interval_s=0.0)
+    tied = generate(cfg, faults=preset("radio-bias-small", onset_day=0.25), seed=5)
+    keyed = [(e.t_s, 0, i, topics.SIM_FAULTS, e) for i, e in enumerate(tied.fault_events)]
+    keyed += [(x.t_s, 1, i, topics.SIM_TRUTH, x) for i, x in enumerate(tied.truth)]
+    keyed += [(float(t), 2, i, topics.SIM_MEASUREMENTS, x)
+              for i, (t, x) in enumerate(zip(tied.t_true.tolist(), tied.measurements))]
+    expected = [(k[3], k[4]) for k in sorted(keyed, key=lambda k: k[:3])]
+    got = list(tied.iter_messages())
+    assert len(got) == len(expected) and tied.fault_events and len(tied.truth) == np.unique(tied.t_true).size
+    assert all(a[0] == b[0] and a[1] is b[1] for a, b in zip(got, expected))
+    ties = sum(1 for (_, a), (_, b) in zip(got, got[1:]) if isinstance(a, Truth) and isinstance(b, Measurement))
+    assert ties > 100  # truth ahead of the measurement at its own time, again and again
+
+
 def test_jsonl_round_trip_and_rejection(run, tmp_path):
     path = tmp_path / "run.jsonl"
     cfg = SimConfig(trajectory=TrajectoryConfig(span_days=1.0))
