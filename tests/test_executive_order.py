@@ -136,14 +136,51 @@ def test_job_not_run_before_its_time_tag():
 
 
 def _scan_pick(queue):
-    """The priority rule written out independently: among lane heads that are their job's next
-    stage, the lowest (priority rank, job order)."""
-    heads = [lane[0] for lane in queue._lanes.values() if lane]
+    """The priority rule written out independently: among lane heads (each lane's first
+    outstanding stage, jobs in order) that are their job's next stage, the lowest (priority
+    rank, job order)."""
+    first: dict[str, tuple[object, int]] = {}
+    for state in queue._jobs:
+        for index in range(state.next, len(state.job.stages)):
+            first.setdefault(state.job.stages[index].lane_key, (state, index))
+    heads = list(first.values())
     ready = [(state.job.stages[index].rank, state.order, state, index) for state, index in heads if state.next == index]
     if not ready:
         return None
     rank, order, state, index = min(ready, key=lambda r: (r[0], r[1]))
     return state, index
+
+
+@pytest.mark.parametrize("policy", ["priority", "fifo"])
+def test_a_stage_completed_out_of_order_is_refused_with_one_job_or_many(policy):
+    """complete() refuses a stage that is not its job's next, or (under fifo, or with one job
+    outstanding) not the oldest outstanding job's — with the lanes kept and without them — and
+    a refused completion leaves the queue as it was (the stages then complete in order)."""
+    from fsw.executive.schedule import JobState
+
+    def job(t):
+        return JobState(Job(t=t, stages=(Stage("ingest", lambda: None), Stage("gating", lambda: None))), int(t))
+
+    queue = StageQueue(policy)
+    a = job(0.0)
+    queue.add(a)
+    with pytest.raises(RuntimeError, match="out of order"):
+        queue.complete(a, 1)  # its second stage before its first
+    queue.complete(a, 0)
+    b = job(1.0)
+    queue.add(b)  # two jobs outstanding: the priority policy keeps lanes from here on
+    with pytest.raises(RuntimeError, match="out of order"):
+        queue.complete(b, 1)
+    if policy == "fifo":
+        with pytest.raises(RuntimeError, match="out of order"):
+            queue.complete(b, 0)  # fifo: the younger job waits for the older one
+        queue.complete(a, 1)
+        queue.complete(b, 0)
+    else:
+        queue.complete(b, 0)  # its lane (ingest) is free: allowed ahead of a's gating
+        queue.complete(a, 1)
+    assert queue.complete(b, 1) and queue.pending_jobs == 0 and queue.pending_stages == 0
+    assert queue.peek() is None
 
 
 def test_priority_peek_matches_the_rule_with_one_job_or_many():

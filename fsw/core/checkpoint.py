@@ -51,7 +51,8 @@ from fsw.interface.messages import SCHEMA_VERSION, RunStatus
 
 FORMAT = "navbank-fsw-checkpoint"
 #: Bumped whenever what is pickled changes shape: an older file is refused, not misread.
-VERSION = 11  # 11: the chi-square network keeps its batch sums as one (4, N) array; 10: the core
+VERSION = 12  # 12: the executive's stage queue keeps lanes only while two or more jobs are
+# outstanding (None otherwise); 11: the chi-square network keeps its batch sums as one (4, N) array; 10: the core
 # holds the records of the residuals not yet sent, not their samples; 9:
 # the CPU meter keeps each stage label's measured CPU; 8: the core and the objects
 # it runs per measurement are slotted (their pickles carry slots, not instance dictionaries); 7: the

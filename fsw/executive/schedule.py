@@ -56,7 +56,14 @@ class StageQueue:
         if policy not in ("priority", "fifo"):
             raise ValueError(f"unknown scheduling policy {policy!r}")
         self._policy = policy
-        self._lanes: dict[str, deque[tuple[JobState, int]]] = {}
+        # The lanes: every outstanding stage as (job, stage index), one FIFO per lane key. Only
+        # the priority policy with two or more jobs outstanding picks by them; a frame's usual
+        # load is one measurement's job, whose stages run in their own order (see peek), and
+        # queueing its four stages in lanes only to take them out again cost ~1 µs a job. So the
+        # lanes exist only while they can be needed (None otherwise), and are made from the
+        # outstanding jobs, in job order — what they would hold had they been kept all along —
+        # when a second job joins.
+        self._lanes: dict[str, deque[tuple[JobState, int]]] | None = None
         self._jobs: deque[JobState] = deque()
         self.pending_stages = 0
         self.pending_jobs = 0
@@ -64,17 +71,26 @@ class StageQueue:
     def add(self, state: JobState) -> None:
         """Queue a due job; jobs must arrive in order (their lanes stay FIFO)."""
         self._jobs.append(state)
-        lanes = self._lanes
-        index = 0
-        for stage in state.job.stages:
-            # a lane, once made, stays (empty between jobs): the same few lanes serve every job
-            lane = lanes.get(stage.lane_key)
-            if lane is None:
-                lane = lanes[stage.lane_key] = deque()
-            lane.append((state, index))
-            index += 1
-        self.pending_stages += index
+        self.pending_stages += len(state.job.stages)
         self.pending_jobs += 1
+        if self._lanes is not None:
+            self._enter(self._lanes, state, 0)
+        elif self.pending_jobs > 1 and self._policy == "priority":
+            lanes: dict[str, deque[tuple[JobState, int]]] = {}
+            for queued in self._jobs:
+                self._enter(lanes, queued, queued.next)
+            self._lanes = lanes
+
+    @staticmethod
+    def _enter(lanes: dict[str, deque[tuple[JobState, int]]], state: JobState, first: int) -> None:
+        """Append the stages of ``state`` from index ``first`` on to their lanes (made as needed)."""
+        stages = state.job.stages
+        for index in range(first, len(stages)):
+            key = stages[index].lane_key
+            lane = lanes.get(key)
+            if lane is None:
+                lane = lanes[key] = deque()
+            lane.append((state, index))
 
     def pending_with(self, label: str) -> int:
         """Due jobs with a stage labelled ``label`` still to run."""
@@ -99,7 +115,9 @@ class StageQueue:
         # they decide almost every comparison
         best: tuple[JobState, int] | None = None
         best_rank = best_order = 0
-        for lane in self._lanes.values():
+        lanes = self._lanes
+        assert lanes is not None  # kept whenever two or more jobs are outstanding (add)
+        for lane in lanes.values():
             if not lane:
                 continue
             head = lane[0]
@@ -126,12 +144,30 @@ class StageQueue:
 
     def complete(self, state: JobState, index: int) -> bool:
         """Mark the stage returned by :meth:`peek` as run; True when that finished its job."""
-        head = self._lanes[state.job.stages[index].lane_key].popleft()
-        if head[0] is not state or head[1] != index or state.next != index:
+        lanes = self._lanes
+        lane = None
+        if lanes is not None:
+            lane = lanes[state.job.stages[index].lane_key]
+            if not lane or lane[0][0] is not state or lane[0][1] != index:
+                raise RuntimeError("stage completed out of order")  # refused: the queue unchanged
+        else:
+            # without lanes (one job outstanding, or fifo) the stage must be the oldest
+            # outstanding job's; finished jobs ahead of it go now rather than at the next oldest()
+            jobs = self._jobs
+            if not jobs or jobs[0] is not state:
+                while jobs and jobs[0].done:
+                    jobs.popleft()
+                if not jobs or jobs[0] is not state:
+                    raise RuntimeError("stage completed out of order")
+        if state.next != index:
             raise RuntimeError("stage completed out of order")
+        if lane is not None:
+            lane.popleft()
         state.next = index + 1
         self.pending_stages -= 1
         if index + 1 >= len(state.job.stages):
             self.pending_jobs -= 1
+            if self.pending_jobs <= 1:
+                self._lanes = None  # the one job left, if any, runs in its own order
             return True
         return False
