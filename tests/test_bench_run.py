@@ -99,8 +99,14 @@ def test_filter_and_decode_rows_print_json_lines():
     results = run_benchmarks(json=True, quick=True, out=buf, only=lambda g: g in ("filters", "decode"))
     lines = [json.loads(line) for line in buf.getvalue().splitlines()]
     assert [r["name"] for r in lines] == ["linear-bank-vs-filterpy", "ekf-update-vs-filterpy-N3",
-                                          "ekf-update-vs-filterpy-N6", "icd-decode"]
+                                          "ekf-update-vs-filterpy-N6", "icd-decode", "machine-steadiness"]
     assert lines == json.loads(json.dumps(results))
+    *lines, steady = lines
+    # the probe was timed before each group that ran and at the end
+    assert list(steady["probe_ms"]) == ["filters", "decode", "end"] and steady["points"] == 3
+    probes = steady["probe_ms"].values()
+    assert steady["ours"] == pytest.approx(max(probes), abs=1e-3)
+    assert steady["reference"] == pytest.approx(min(probes), abs=1e-3)
     for r in lines:
         assert ROW_KEYS <= set(r) and isinstance(r["met"], bool)
         assert r["ours"] > 0 and r["reference"] > 0
@@ -130,7 +136,7 @@ def test_without_filterpy_its_rows_are_skipped_with_one_line(monkeypatch, capsys
     monkeypatch.setitem(sys.modules, "filterpy.kalman", None)
     buf = io.StringIO()
     results = run_benchmarks(json=True, quick=True, out=buf, only=lambda g: g in ("filters", "decode"))
-    assert [r["name"] for r in results] == ["icd-decode"]
+    assert [r["name"] for r in results] == ["icd-decode", "machine-steadiness"]
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "skipped" in err[0] and "FilterPy" in err[0]
 
@@ -143,7 +149,7 @@ def test_quick_bench_has_a_row_for_every_goal():
     for want in ("fsw-core-cpu", "fsw-core-flop-rate", "inprocess-45day-wall", "budget-overruns", "icd-decode",
                  "linear-bank-vs-filterpy", "ekf-update-vs-filterpy-N3", "ekf-update-vs-filterpy-N6",
                  "campaign-gain-local", "campaign-45day-runs-per-min", "campaign-gain-dask-localcluster",
-                 "campaign-gain-dask-scheduler"):
+                 "campaign-gain-dask-scheduler", "machine-steadiness"):
         assert want in names
     for r in rows:
         assert ROW_KEYS <= set(r) and isinstance(r["met"], bool)

@@ -13,7 +13,9 @@ Rows (every one: ``name``, ``ours``, ``reference``, ``unit``, ``ratio``, ``goal`
   (the stacked EKF bank vs the same filters one by one);
 * :mod:`.campaigns` — ``campaign-*``: runs/min on 1 and 2 workers on the local pool, a dask
   LocalCluster and a dask scheduler with worker processes;
-* :mod:`.navrun` — ``navbank-run-wall``, ``navbank-run-fsw-cpu`` (``full`` only: starts ``navbank run``).
+* :mod:`.navrun` — ``navbank-run-wall``, ``navbank-run-fsw-cpu`` (``full`` only: starts ``navbank run``);
+* :mod:`.steadiness` — ``machine-steadiness``, last: one fixed workload timed before each group
+  and at the end, slowest / fastest (≤ 1.1: the machine kept its speed through the run).
 
 ``quick`` flies a 2-day arc of the default scenario instead of 45 days (walls are scaled to the
 45-day run by measurement count and say so), runs campaigns of 2-day runs, one repeat each; it
@@ -30,6 +32,7 @@ from typing import IO, Any
 
 from tools.bench.machine import machine
 from tools.bench.rows import text_line
+from tools.bench.steadiness import Steadiness
 
 QUICK_SPAN_DAYS = 2.0
 
@@ -58,8 +61,10 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
     host = machine()
     if not json:  # JSON rows carry it themselves
         print("machine: " + ", ".join(f"{key} {value}" for key, value in host.items()), file=out, flush=True)
+    steadiness = Steadiness()  # the probe before each group of rows and at the end
 
     if want("filters"):
+        steadiness.sample("filters")
         try:
             import filterpy.kalman  # noqa: F401  (the reference of the FilterPy rows)
         except ImportError:
@@ -78,11 +83,13 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
             emit(filters.bench_stacking(preset("nominal"), "ekf-bank-stacking-3", stream, env))
             emit(filters.bench_stacking(preset("acs-q"), "ekf-bank-stacking-6", stream, env))
     if want("decode"):
+        steadiness.sample("decode")
         stream = filters.insight_stream(120 if quick else 600, Environment())
         emit(decode.bench_decode(seconds=0.5 if quick else 2.0, measurements=stream[3], label=stream[4]))
     span = QUICK_SPAN_DAYS if quick else None
     fig = None
     if want("core") or want("navrun") or want("campaigns"):
+        steadiness.sample("core")
         fig = core.fly(span, repeats=1 if quick else 3)
     full_n = core.FULL_RUN_MEASUREMENTS if quick else None
     if fig is not None and want("core"):
@@ -92,6 +99,7 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
         from tools.bench.campaigns import campaign_rows
 
         assert fig is not None
+        steadiness.sample("campaigns")
         for row in campaign_rows(fig.span_days, inprocess_cpu_s=fig.run_cpu_s,
                                  runs_per_worker=4 if quick else 3, repeats=1 if quick else 2):
             emit(row)
@@ -99,12 +107,15 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
         from tools.bench.navrun import navrun_rows
 
         assert fig is not None
+        steadiness.sample("navrun")
         # the reference is the 45-day in-process core: a shorter arc's CPU per measurement differs
         whole = fig if not quick else core.fly(None, repeats=1)
         stage_us = None if whole.stage_cpu_s is None else whole.stage_cpu_s / whole.measurements * 1e6
         for row in navrun_rows(core.scenario(), 1, whole.fsw_cpu_s / whole.measurements * 1e6, stage_us,
                                whole.stage_us):
             emit(row)
+    steadiness.sample("end")
+    emit(steadiness.row())
     return rows
 
 

@@ -11,8 +11,11 @@ in-process run's wall, budget overruns at the nominal budget, strict message dec
 json.loads, the linear and EKF banks against FilterPy (the `bench` extra, pip install
 "navbank[bench]"; without it those rows are skipped with a note), campaign runs per minute on 1
 and 2 workers (local pool, dask LocalCluster, a dask scheduler and worker processes on loopback)
-and, with --full, `navbank run`'s wall and its FSW process's CPU. --json prints one JSON object
-per line (name, ours, reference, unit, ratio, goal, met, meaning, details)."""
+and, with --full, `navbank run`'s wall and its FSW process's CPU; last, whether the machine kept
+its speed through the run (one fixed workload timed before each group and at the end: slowest /
+fastest <= 1.1; above, the absolute figures of the run are uncertain by about that factor).
+--json prints one JSON object per line (name, ours, reference, unit, ratio, goal, met, meaning,
+details)."""
 
 
 def add_arguments(p) -> None:
