@@ -49,18 +49,11 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
     out = out if out is not None else sys.stdout
     rows: list[dict[str, Any]] = []
     want = only or (lambda group: True)
-
-    def emit(row: dict[str, Any]) -> None:
-        row = {**row, "machine": host}
-        rows.append(row)
-        print(_json.dumps(row) if json else text_line(row), file=out, flush=True)
+    emit = _printer(rows, json, out)
 
     def note(text: str) -> None:
         print(text, file=sys.stderr if json else out, flush=True)
 
-    host = machine()
-    if not json:  # JSON rows carry it themselves
-        print("machine: " + ", ".join(f"{key} {value}" for key, value in host.items()), file=out, flush=True)
     steadiness = Steadiness()  # the probe before each group of rows and at the end
 
     if want("filters"):
@@ -119,4 +112,36 @@ def run_benchmarks(json: bool = False, quick: bool = False, full: bool = False, 
     return rows
 
 
-__all__ = ["run_benchmarks", "QUICK_SPAN_DAYS"]
+def run_against(rev: str, json: bool = False, quick: bool = False, out: IO[str] | None = None) -> list[dict[str, Any]]:
+    """``navbank bench --against REV``: the working tree's FSW core against ``rev``'s in lock step
+    (:mod:`tools.bench.against`; a 2-day arc with ``quick``), then the steadiness row."""
+    from tools.bench.against import compare
+
+    out = out if out is not None else sys.stdout
+    rows: list[dict[str, Any]] = []
+    emit = _printer(rows, json, out)
+    steadiness = Steadiness()
+    steadiness.sample("against")
+    emit(compare(rev, span_days=QUICK_SPAN_DAYS if quick else None, repeats=2 if quick else 3,
+                 progress=sys.stderr if json else out))
+    steadiness.sample("end")
+    emit(steadiness.row())
+    return rows
+
+
+def _printer(rows: list[dict[str, Any]], json: bool, out: IO[str]) -> Callable[[dict[str, Any]], None]:
+    """What prints a row (text, or one JSON object per line) and keeps it in ``rows``; the text
+    output starts with the machine, which every row carries."""
+    host = machine()
+    if not json:  # JSON rows carry it themselves
+        print("machine: " + ", ".join(f"{key} {value}" for key, value in host.items()), file=out, flush=True)
+
+    def emit(row: dict[str, Any]) -> None:
+        row = {**row, "machine": host}
+        rows.append(row)
+        print(_json.dumps(row) if json else text_line(row), file=out, flush=True)
+
+    return emit
+
+
+__all__ = ["run_against", "run_benchmarks", "QUICK_SPAN_DAYS"]

@@ -74,6 +74,10 @@ def text_line(row: dict[str, Any]) -> str:
     ratio = "-" if row["ratio"] is None else f"{row['ratio']:.3g}"
     line = (f"{row['name']:<28} ours {row['ours']:12.4g} {row['unit']:<16} reference {row['reference']:12.4g}"
             f"   ratio {ratio:>8}  goal {row['goal']:<12} {verdict:<8} ({row['meaning']})")
+    if "outputs_identical" in row:  # a comparison of two implementations on the same input
+        line += f"\n    outputs identical: {'yes' if row['outputs_identical'] else 'NO'}"
+        if row.get("per_repeat_ratios"):
+            line += "; ratio of each repeat: " + ", ".join(f"{r:.3f}" for r in row["per_repeat_ratios"])
     stages = row.get("stage_us_per_measurement")
     if stages:
         # where a per-measurement cost goes, stage by stage, is what one acts on

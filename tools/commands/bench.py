@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 NAME = "bench"
 HELP = "speed benchmarks (ratios against references measured in the same process)"
 DESCRIPTION = """Speed benchmarks: one row per speed goal, each measured together with a reference
@@ -15,7 +17,9 @@ and, with --full, `navbank run`'s wall and its FSW process's CPU; last, whether 
 its speed through the run (one fixed workload timed before each group and at the end: slowest /
 fastest <= 1.1; above, the absolute figures of the run are uncertain by about that factor).
 --json prints one JSON object per line (name, ours, reference, unit, ratio, goal, met, meaning,
-details)."""
+details). --against REV runs one comparison instead: this tree's FSW core and the git revision
+REV's on the same stream, in lock step on one processor (a drift of the machine falls on both),
+their CPU per measurement, the ratio and whether their outputs are identical."""
 
 
 def add_arguments(p) -> None:
@@ -23,10 +27,22 @@ def add_arguments(p) -> None:
     p.add_argument("--quick", action="store_true",
                    help="a 2-day arc and fewer repetitions: a rough figure in about a minute")
     p.add_argument("--full", action="store_true", help="also the rows that start `navbank run` (three processes)")
+    p.add_argument("--against", metavar="REV",
+                   help="instead: the FSW core of this tree against the git revision REV's (e.g. HEAD, main~3), "
+                        "flown on the same stream in lock step, and whether their outputs are identical")
 
 
 def run(args) -> int:
-    from tools.bench import run_benchmarks
+    from tools.bench import run_against, run_benchmarks
 
+    if args.against is not None:
+        from tools.bench.against import AgainstError
+
+        try:
+            run_against(args.against, json=args.json, quick=args.quick)
+        except AgainstError as exc:
+            print(f"navbank bench: {exc}", file=sys.stderr)
+            return 2
+        return 0
     run_benchmarks(json=args.json, quick=args.quick, full=args.full)
     return 0
