@@ -94,3 +94,18 @@ def test_the_command_prints_the_comparison_and_the_steadiness_rows(shared_cache,
     assert [r["name"] for r in lines] == [rows[0]["name"], "machine-steadiness"]
     assert lines[0]["name"].startswith("fsw-core-vs-") and "outputs_identical" in lines[0]
     assert list(lines[1]["probe_ms"]) == ["against", "end"]
+
+
+def test_the_first_difference_of_two_outputs_is_named_by_message_and_topic(tmp_path):
+    from tools.bench.against import first_difference
+
+    a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    a.write_bytes(b"fsw/estimate/radio\0{\"x\":1}\nfsw/weights/chi2\0{\"w\":[0.5,0.5]}\n")
+    b.write_bytes(b"fsw/estimate/radio\0{\"x\":1}\nfsw/weights/chi2\0{\"w\":[0.4,0.6]}\n")
+    c.write_bytes(b"fsw/estimate/radio\0{\"x\":1}\n")
+    assert first_difference([("ours repeat 1", str(a)), ("ours repeat 2", str(a))]) is None
+    said = first_difference([("ours repeat 1", str(a)), ("reference repeat 1", str(b))])
+    assert said is not None and "reference repeat 1 parts from ours repeat 1 at message 2 (fsw/weights/chi2)" in said
+    assert "[0.5,0.5]" in said and "[0.4,0.6]" in said
+    assert first_difference([("ours repeat 1", str(a)), ("reference repeat 1", str(c))]) == (
+        "reference repeat 1 emitted 1 messages, ours repeat 1 2")

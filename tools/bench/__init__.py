@@ -122,7 +122,7 @@ def run_against(rev: str, json: bool = False, quick: bool = False, out: IO[str] 
     emit = _printer(rows, json, out)
     steadiness = Steadiness()
     steadiness.sample("against")
-    emit(compare(rev, span_days=QUICK_SPAN_DAYS if quick else None, repeats=2 if quick else 3,
+    emit(compare(rev, span_days=QUICK_SPAN_DAYS if quick else None, repeats=2 if quick else 5,
                  progress=sys.stderr if json else out))
     steadiness.sample("end")
     emit(steadiness.row())

@@ -15,9 +15,10 @@ under test prints goes to stderr instead):
 * ``{"start": true}`` — a new core, started; reply ``{"cpu_s": ...}``;
 * ``{"run": [i, j]}`` — ingest measurements i..j−1; reply ``{"cpu_s": ...}``, the thread CPU of
   the ingests alone;
-* ``{"finish": true}`` — end of stream; reply ``{"cpu_s": ..., "digest": ..., "messages": n}``,
-  the digest a SHA-256 of the topics and ICD JSON of every message the core emitted but its
-  budget reports and statuses (which hold CPU figures);
+* ``{"finish": true, "keep": PATH}`` — end of stream; reply ``{"cpu_s": ..., "digest": ...,
+  "messages": n}``, the digest a SHA-256 of the topics and ICD JSON of every message the core
+  emitted but its budget reports and statuses (which hold CPU figures), those lines also written
+  to PATH if given;
 * ``{"quit": true}``.
 """
 
@@ -88,11 +89,17 @@ def main() -> int:
             cpu = time.thread_time() - t0
             digest = hashlib.sha256()
             n = 0
+            keep = open(request["keep"], "wb") if request.get("keep") else None
             for topic, msg in emitted:
                 if "budget" in topic or "status" in topic:
                     continue
-                digest.update(topic.encode() + b"\0" + codec.to_json(msg) + b"\n")
+                row = topic.encode() + b"\0" + codec.to_json(msg) + b"\n"
+                digest.update(row)
+                if keep is not None:
+                    keep.write(row)
                 n += 1
+            if keep is not None:
+                keep.close()
             answer = {"cpu_s": cpu, "digest": digest.hexdigest(), "messages": n}
             emitted.clear()
             core = None

@@ -78,6 +78,8 @@ def text_line(row: dict[str, Any]) -> str:
         line += f"\n    outputs identical: {'yes' if row['outputs_identical'] else 'NO'}"
         if row.get("per_repeat_ratios"):
             line += "; ratio of each repeat: " + ", ".join(f"{r:.3f}" for r in row["per_repeat_ratios"])
+        if row.get("first_difference"):
+            line += "\n    " + row["first_difference"]
     stages = row.get("stage_us_per_measurement")
     if stages:
         # where a per-measurement cost goes, stage by stage, is what one acts on
