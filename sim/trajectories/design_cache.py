@@ -39,16 +39,23 @@ FORMAT = "navbank-design-state/1"
 _PACKAGES = ("sim", "fsw")
 
 
-def cache_dir() -> Path | None:
-    """Where the states are kept (not necessarily existing or writable); None if this process
-    has no home directory to put them in."""
+def cache_root() -> Path | None:
+    """navbank's cache directory: ``$NAVBANK_CACHE_DIR``, else ``$XDG_CACHE_HOME/navbank`` or
+    ``~/.cache/navbank`` (not necessarily existing or writable); None if this process has no home
+    directory to put it in."""
     root = os.environ.get("NAVBANK_CACHE_DIR")
     if not root:
         try:
             root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "navbank")
         except (RuntimeError, KeyError):  # Path.home() of a user without one
             return None
-    return Path(root) / "design-states"
+    return Path(root)
+
+
+def cache_dir() -> Path | None:
+    """Where the states are kept (:func:`cache_root`'s ``design-states``); None without a root."""
+    root = cache_root()
+    return None if root is None else root / "design-states"
 
 
 @lru_cache(maxsize=1)

@@ -69,10 +69,13 @@ def _git(*args: str) -> str:
 
 
 def cache_root() -> Path:
-    """Where extracted revisions are kept: ``$NAVBANK_CACHE_DIR/against``, else the user's cache."""
-    root = os.environ.get("NAVBANK_CACHE_DIR") or str(
-        Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "navbank")
-    return Path(root) / "against"
+    """Where extracted revisions are kept: ``against`` in navbank's cache directory."""
+    from sim.trajectories.design_cache import cache_root as navbank_cache
+
+    root = navbank_cache()
+    if root is None:
+        raise AgainstError("no cache directory to keep the revision in: set NAVBANK_CACHE_DIR")
+    return root / "against"
 
 
 def revision_tree(rev: str) -> tuple[str, Path]:
@@ -145,10 +148,10 @@ def first_difference(outputs: list[tuple[str, str]]) -> str | None:
         other = Path(path).read_bytes().splitlines()
         for k, (a, b) in enumerate(zip(base, other)):
             if a != b:
-                topic = a.split(b"\0", 1)[0].decode(errors="replace")
-                return (f"{label} parts from {label0} at message {k + 1} ({topic}): "
-                        f"{a.split(chr(0).encode(), 1)[-1][:300].decode(errors='replace')} | "
-                        f"{b.split(chr(0).encode(), 1)[-1][:300].decode(errors='replace')}")
+                topic, ours = a.split(b"\0", 1)
+                theirs = b.split(b"\0", 1)[-1]
+                return (f"{label} parts from {label0} at message {k + 1} ({topic.decode(errors='replace')}): "
+                        f"{ours[:300].decode(errors='replace')} | {theirs[:300].decode(errors='replace')}")
         if len(base) != len(other):
             return f"{label} emitted {len(other)} messages, {label0} {len(base)}"
     return None
@@ -202,9 +205,11 @@ def compare(rev: str, span_days: float | None = None, repeats: int = 3, chunk: i
                         total[key] += sides[key].ask(run=[start, min(start + chunk, n)])["cpu_s"]
                     order.reverse()
                 for key, side in sides.items():
-                    end = side.ask(finish=True, keep=str(Path(tmp) / f"{key}-{len(digests[key])}.out"))
+                    # the next unused name: the files of the outputs already seen stay as they were
+                    kept = str(Path(tmp) / f"{key}-{len(digests[key])}.out")
+                    end = side.ask(finish=True, keep=kept)
                     total[key] += end["cpu_s"]
-                    digests[key].setdefault(end["digest"], str(Path(tmp) / f"{key}-{len(digests[key])}.out"))
+                    digests[key].setdefault(end["digest"], kept)
                     cpu[key].append(total[key] / max(n, 1) * 1e6)
                 if progress is not None:
                     print(f"bench --against {commit[:12]}: repeat {rep + 1}/{repeats}: ours {cpu['ours'][-1]:.1f}, "
