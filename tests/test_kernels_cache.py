@@ -9,16 +9,36 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from fsw.kernels import cache
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(autouse=True)
+def numba_cache_dir_restored():
+    """The process's ``NUMBA_CACHE_DIR`` (and numba's configuration read from it) as before the
+    test, whatever :func:`cache.configure_cache_dir` set: the tests after it, and the processes
+    they start, must compile into and load from the cache they would have used otherwise (a
+    directory left behind here would make the next test compile every kernel anew)."""
+    before = os.environ.get("NUMBA_CACHE_DIR")
+    yield
+    if before is None:
+        os.environ.pop("NUMBA_CACHE_DIR", None)
+    else:
+        os.environ["NUMBA_CACHE_DIR"] = before
+    if "numba" in sys.modules:
+        from numba.core import config
+
+        config.reload_config()
 
 
 def test_cache_dir_is_left_to_numba_when_the_package_is_writable(monkeypatch):
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
     monkeypatch.setattr(cache, "_writable", lambda path: True)
     cache.configure_cache_dir()
-    assert "NUMBA_CACHE_DIR" not in __import__("os").environ
+    assert "NUMBA_CACHE_DIR" not in os.environ
 
 
 def test_unwritable_package_dir_falls_back_to_a_writable_cache(monkeypatch, tmp_path):
@@ -28,8 +48,6 @@ def test_unwritable_package_dir_falls_back_to_a_writable_cache(monkeypatch, tmp_
     writable_parent = tmp_path / "tmp"
     monkeypatch.setattr(cache, "_writable", lambda path: writable_parent in Path(path).parents)
     cache.configure_cache_dir()
-    import os
-
     chosen = Path(os.environ["NUMBA_CACHE_DIR"])
     assert chosen.parent == writable_parent and chosen.name.startswith("navbank-numba-")
 
@@ -38,8 +56,6 @@ def test_an_explicit_cache_dir_is_kept(monkeypatch):
     monkeypatch.setenv("NUMBA_CACHE_DIR", "/somewhere/chosen")
     monkeypatch.setattr(cache, "_writable", lambda path: False)
     cache.configure_cache_dir()
-    import os
-
     assert os.environ["NUMBA_CACHE_DIR"] == "/somewhere/chosen"
 
 
