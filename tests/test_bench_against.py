@@ -11,7 +11,8 @@ import sys
 import pytest
 
 from tools.bench import run_against
-from tools.bench.against import REPO, AgainstError, compare, revision_tree
+from fsw.kernels.cache import source_stamp
+from tools.bench.against import REPO, AgainstError, compare, revision_tree, seed_kernel_cache
 
 
 def _git(*args: str) -> str:
@@ -31,7 +32,7 @@ needs_git = pytest.mark.skipif(not _has_git_history(), reason="not a git checkou
 
 @pytest.fixture(scope="module")
 def shared_cache(tmp_path_factory):
-    """One cache for the slow tests: HEAD's fsw is taken out and its kernels compiled once."""
+    """One cache for the slow tests: HEAD's fsw is taken out and its kernels compiled (or copied) once."""
     return tmp_path_factory.mktemp("against-cache")
 
 
@@ -81,6 +82,10 @@ def test_the_same_code_flown_in_lock_step_gives_the_same_outputs_and_about_the_s
         assert row["outputs_identical"] is True
         # the same code: within the scatter of two cores timed in lock step on one processor
         assert 0.7 < row["ratio"] < 1.4
+    # the kernels were the working tree's compiled ones wherever their sources are the same
+    _, tree = revision_tree("HEAD")
+    same_kernels = source_stamp(REPO / "fsw" / "kernels") == source_stamp(tree / "fsw" / "kernels")
+    assert (row["kernels_copied"] > 0) is same_kernels
 
 
 @needs_git
@@ -94,6 +99,40 @@ def test_the_command_prints_the_comparison_and_the_steadiness_rows(shared_cache,
     assert [r["name"] for r in lines] == [rows[0]["name"], "machine-steadiness"]
     assert lines[0]["name"].startswith("fsw-core-vs-") and "outputs_identical" in lines[0]
     assert list(lines[1]["probe_ms"]) == ["against", "end"]
+
+
+def _tree_with_the_working_kernels(root):
+    kernels = root / "fsw" / "kernels"
+    kernels.mkdir(parents=True)
+    for source in (REPO / "fsw" / "kernels").glob("*.py"):
+        (kernels / source.name).write_bytes(source.read_bytes())
+    return kernels
+
+
+def test_compiled_kernels_are_copied_only_into_a_revision_with_the_same_kernel_sources_and_none_of_its_own(tmp_path):
+    compiled = tmp_path / "compiled"
+    compiled.mkdir()
+    for name in ("leg.fly_leg-10.py311.nbi", "leg.fly_leg-10.py311.1.nbc", "leg.cpython-311.pyc"):
+        (compiled / name).write_bytes(name.encode())
+    same = _tree_with_the_working_kernels(tmp_path / "same")
+    assert seed_kernel_cache(str(compiled), same.parents[1]) == 2
+    cached = same / "__pycache__"
+    # numba's files, as they were, and nothing else (the bytecode is Python's, of other sources)
+    assert sorted(p.name for p in cached.iterdir()) == ["leg.fly_leg-10.py311.1.nbc", "leg.fly_leg-10.py311.nbi"]
+    assert (cached / "leg.fly_leg-10.py311.nbi").read_bytes() == b"leg.fly_leg-10.py311.nbi"
+    # the revision's own compiled kernels are never overwritten
+    (cached / "leg.fly_leg-10.py311.nbi").write_bytes(b"its own")
+    assert seed_kernel_cache(str(compiled), same.parents[1]) == 0
+    assert (cached / "leg.fly_leg-10.py311.nbi").read_bytes() == b"its own"
+    # a revision whose kernels differ by one byte compiles its own
+    other = _tree_with_the_working_kernels(tmp_path / "other")
+    with open(other / "joseph_update.py", "ab") as f:
+        f.write(b"\n")
+    assert seed_kernel_cache(str(compiled), other.parents[1]) == 0 and not (other / "__pycache__").exists()
+    # nothing to copy from
+    fresh = _tree_with_the_working_kernels(tmp_path / "fresh")
+    assert seed_kernel_cache(None, fresh.parents[1]) == 0
+    assert seed_kernel_cache(str(tmp_path / "missing"), fresh.parents[1]) == 0
 
 
 def test_the_first_difference_of_two_outputs_is_named_by_message_and_topic(tmp_path):

@@ -16,9 +16,13 @@ stage the machine was too slow for, and what comes out then depends on when); th
 and the start-up warm-up, which only mode ``cpu`` runs, are outside the comparison.
 
 The revision's ``fsw`` package alone is taken out of git (``git archive``): the FSW imports
-nothing of ``sim``, ``ground`` or ``tools``. It is kept under the cache directory by commit, so
-its compiled kernels are compiled once (the first comparison against a revision takes a minute
-or two more).
+nothing of ``sim``, ``ground`` or ``tools``. It is kept under the cache directory by commit, with
+its compiled kernels beside it (in its own ``fsw/kernels/__pycache__``). Where the revision's
+kernel sources are the working tree's to the byte (most changes leave them alone), those are
+the working tree's compiled kernels, copied (:func:`seed_kernel_cache`): numba stamps each
+kernel's cache with a digest of every kernel source (:mod:`fsw.kernels.cache`), not with paths or
+times, so it loads them as its own. Otherwise the revision's kernels are compiled, once per
+revision (a minute or two more the first time).
 
 The row ``fsw-core-vs-<rev>``: ours the working tree's CPU µs per measurement, the reference the
 revision's (each the mean over the repeats, which were flown side by side), ratio reference /
@@ -103,12 +107,42 @@ def revision_tree(rev: str) -> tuple[str, Path]:
     return commit, target
 
 
-class _Side:
-    """A worker process running the ``fsw`` of the tree at ``root``."""
+def seed_kernel_cache(compiled: str | None, tree: Path) -> int:
+    """Copy the compiled kernels in directory ``compiled`` (the working tree's, as its worker
+    reported) into the revision at ``tree``'s own kernel cache, if the two trees' kernel sources
+    are the same bytes and the revision has no compiled kernels yet; returns the files copied.
 
-    def __init__(self, name: str, root: Path):
+    numba then finds, under the same file names, an index stamped with the same digest of the
+    kernel sources and loads the machine code instead of compiling it; anything it cannot use it
+    compiles anew, as for an empty cache."""
+    from fsw.kernels.cache import source_stamp
+
+    source, target = (Path(compiled) if compiled else None), tree / "fsw" / "kernels" / "__pycache__"
+    if source is None or not source.is_dir() or any(target.glob("*.nbi")):
+        return 0
+    if source_stamp(REPO / "fsw" / "kernels") != source_stamp(tree / "fsw" / "kernels"):
+        return 0
+    target.mkdir(parents=True, exist_ok=True)
+    copied = 0
+    # data files first: an index is only of use once the files it names are there
+    for pattern in ("*.nbc", "*.nbi"):
+        for path in sorted(source.glob(pattern)):
+            staged = target / f".{path.name}.tmp"
+            shutil.copyfile(path, staged)
+            os.replace(staged, target / path.name)
+            copied += 1
+    return copied
+
+
+class _Side:
+    """A worker process running the ``fsw`` of the tree at ``root`` (with ``own_cache``, numba
+    keeps its compiled kernels inside that tree whatever ``NUMBA_CACHE_DIR`` says)."""
+
+    def __init__(self, name: str, root: Path, own_cache: bool = False):
         self.name = name
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}
+        if own_cache:
+            env.pop("NUMBA_CACHE_DIR", None)
         self.proc = subprocess.Popen([sys.executable, str(WORKER)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      env=env, text=True, cwd=str(root))
 
@@ -182,18 +216,26 @@ def compare(rev: str, span_days: float | None = None, repeats: int = 3, chunk: i
     commit, tree = revision_tree(rev)
     with tempfile.TemporaryDirectory(prefix="navbank-against-") as tmp:
         config_file, stream_file, n = _stream_files(Path(tmp), span_days, seed)
-        sides = {"ours": _Side("working tree", REPO), "reference": _Side(commit[:12], tree)}
+        sides: dict[str, _Side] = {}
+
+        def ready(key: str, side: _Side) -> dict[str, Any]:
+            """The side loaded and warmed up; its answer to the first start."""
+            sides[key] = side
+            got = side.ask(load=str(config_file), stream=str(stream_file))["measurements"]
+            if got != n:
+                raise AgainstError(f"the {side.name} side read {got} of {n} measurements")
+            # untimed: what a process pays once (compiled kernels loaded, or compiled the first
+            # time a revision is compared; tables built), not per measurement
+            started = side.ask(start=True)
+            side.ask(run=[0, min(n, WARM_UP_MEASUREMENTS)])
+            side.ask(finish=True)
+            return started
+
         try:
-            for side in sides.values():
-                got = side.ask(load=str(config_file), stream=str(stream_file))["measurements"]
-                if got != n:
-                    raise AgainstError(f"the {side.name} side read {got} of {n} measurements")
-            for side in sides.values():
-                # untimed: what a process pays once (compiled kernels loaded, or compiled the first
-                # time a revision is compared; tables built), not per measurement
-                side.ask(start=True)
-                side.ask(run=[0, min(n, WARM_UP_MEASUREMENTS)])
-                side.ask(finish=True)
+            # the working tree's kernels are loaded before the revision's process starts (importing
+            # the FSW loads some of them): where the sources are the same, the revision takes them
+            seeded = seed_kernel_cache(ready("ours", _Side("working tree", REPO)).get("kernel_cache"), tree)
+            ready("reference", _Side(commit[:12], tree, own_cache=True))
             cpu: dict[str, list[float]] = {"ours": [], "reference": []}
             # each side's distinct output digests, with the file of the first repeat that gave each
             digests: dict[str, dict[str, str]] = {"ours": {}, "reference": {}}
@@ -229,7 +271,8 @@ def compare(rev: str, span_days: float | None = None, repeats: int = 3, chunk: i
                     revision=commit, outputs_identical=identical, first_difference=difference,
                     per_repeat_ratios=[round(r / o, 4) for o, r in zip(cpu["ours"], cpu["reference"])],
                     ours_us=[round(v, 2) for v in cpu["ours"]], reference_us=[round(v, 2) for v in cpu["reference"]],
-                    measurements=n, chunk=chunk, repeats=repeats, span_days=span_days)
+                    measurements=n, chunk=chunk, repeats=repeats, span_days=span_days,
+                    kernels_copied=seeded)
 
 
-__all__ = ["AgainstError", "compare", "revision_tree"]
+__all__ = ["AgainstError", "compare", "revision_tree", "seed_kernel_cache"]

@@ -12,7 +12,8 @@ under test prints goes to stderr instead):
 
 * ``{"load": CONFIG_FILE, "stream": STREAM_FILE}`` — the FSW configuration (JSON of the typed
   encoding) and the measurements (one ICD JSON payload per line); reply ``{"measurements": n}``;
-* ``{"start": true}`` — a new core, started; reply ``{"cpu_s": ...}``;
+* ``{"start": true}`` — a new core, started; reply ``{"cpu_s": ..., "kernel_cache": ...}``, the
+  latter the directory numba keeps this ``fsw``'s compiled kernels in (null if it cannot tell);
 * ``{"run": [i, j]}`` — ingest measurements i..j−1; reply ``{"cpu_s": ...}``, the thread CPU of
   the ingests alone;
 * ``{"finish": true, "keep": PATH}`` — end of stream; reply ``{"cpu_s": ..., "digest": ...,
@@ -37,6 +38,17 @@ def _pin_to_last_cpu() -> None:
     if hasattr(os, "sched_getaffinity"):
         cpus = sorted(os.sched_getaffinity(0))
         os.sched_setaffinity(0, {cpus[-1]})
+
+
+def _kernel_cache_dir() -> str | None:
+    """Where numba keeps the compiled kernels of the ``fsw`` this process runs (they are loaded
+    once a core is built); None if this ``fsw`` or numba does not say."""
+    try:
+        from fsw.kernels import joseph_update
+
+        return str(getattr(joseph_update.joseph_update, "_cache")._cache_path)
+    except Exception:  # a revision without that kernel, or a numba that keeps it elsewhere
+        return None
 
 
 def main() -> int:
@@ -74,7 +86,7 @@ def main() -> int:
             t0 = time.thread_time()
             core = FswCore(config, sink, run_id="bench-against")
             core.start()
-            answer = {"cpu_s": time.thread_time() - t0}
+            answer = {"cpu_s": time.thread_time() - t0, "kernel_cache": _kernel_cache_dir()}
         elif "run" in request and core is not None:
             i, j = request["run"]
             ingest = core.ingest
