@@ -23,6 +23,7 @@ import time
 from typing import Callable, Sequence
 
 import fsw.transport as tp
+from fsw import kernels
 from fsw.config import FswConfig
 from fsw.core import FswCore, checkpoint
 from fsw.interface import topics
@@ -57,6 +58,11 @@ def run_fsw(
     this run's and configuration's) and the producer resends what came after it. With
     ``hold_for_logger_s`` telemetry waits while the logger is away (being restarted), at most
     that long each time."""
+    # The kernels before the session: the peers wait minutes for this process's session to open,
+    # and then seconds for its subscriptions. On a machine's first run the kernels are compiled
+    # here (over a minute of CPU on a slow 2-vCPU machine): opened first, the session would
+    # have made a simulator give up waiting for the FSW's subscriptions while they compiled.
+    kernels.load_all()
     with tp.ProcessLifecycle(run_id, transport_cfg, stop_event=stop_event, handle_signals=handle_signals) as life:
         signer = None if life.authenticator is None else life.authenticator.file_tag
         # telemetry goes out in runs of puts, not one by one (see fsw.transport.outbox)

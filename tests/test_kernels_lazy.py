@@ -40,6 +40,27 @@ def test_building_the_core_binds_every_kernel():
     assert after.count("CPUDispatcher") == 5  # numba's compiled kernels after
 
 
+def test_the_fsw_process_binds_every_kernel_before_it_opens_its_session():
+    """The peers of a run wait minutes for the FSW's session to open but seconds for its
+    subscriptions after that: kernels compiled after the session opened (a machine's first run)
+    made the simulator give up on the FSW."""
+    code = ("import fsw.app as app, fsw.models.optical as o, fsw.filters.radiometric_kinds as k\n"
+            "from tools.scenario import load_scenario, resolve\n"
+            "class Opened(Exception):\n    pass\n"
+            "def lifecycle(*args, **kwargs):\n"
+            "    print([type(f).__name__ for f in (o.pinhole_image, k.doppler_step, k.doppler_prediction)])\n"
+            "    raise Opened\n"
+            "app.tp.ProcessLifecycle = lifecycle\n"
+            "cfg, _ = resolve(load_scenario('insight-approach'), 1)\n"
+            "print([type(f).__name__ for f in (o.pinhole_image, k.doppler_step, k.doppler_prediction)])\n"
+            "try:\n    app.run_fsw(cfg.fsw, 'run')\nexcept Opened:\n    pass\n")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    before, at_open = out.stdout.strip().splitlines()
+    assert before.count("function") == 3  # stand-ins while the scenario is read
+    assert at_open.count("CPUDispatcher") == 3  # compiled (or loaded) before the session opens
+
+
 def test_a_stand_in_replaces_itself_on_first_call():
     ns: dict = {}
     ns["sqrt"] = kernels.on_first_call(ns, "sqrt", "math")
