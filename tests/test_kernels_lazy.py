@@ -24,18 +24,25 @@ def test_reading_a_scenario_imports_no_compiler_or_solver():
     assert out.stdout.strip() == "[]"
 
 
-def test_building_the_core_binds_every_kernel():
-    code = ("from fsw.core import FswCore\nfrom tools.scenario import load_scenario, resolve\n"
-            "import fsw.models.optical as o, fsw.models.radiometric as r, fsw.filters.radiometric_kinds as k\n"
-            "names = [o.pinhole_image, r.uplink_light_time, r.uplink_reception, r.uplink_solution, k.doppler_prediction]\n"
-            "before = [type(f).__name__ for f in names]\n"
-            "cfg, _ = resolve(load_scenario('insight-approach'), 1)\n"
-            "FswCore(cfg.fsw, lambda t, m: None)\n"
-            "names = [o.pinhole_image, r.uplink_light_time, r.uplink_reception, r.uplink_solution, k.doppler_prediction]\n"
-            "print(before, [type(f).__name__ for f in names])")
+def _kernel_types(code: str) -> list[str]:
+    """Run ``code`` in a fresh interpreter; the lines it printed (each the type names of some
+    kernels at one moment: ``function`` for a stand-in, ``CPUDispatcher`` once bound)."""
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
-    before, after = out.stdout.strip().split("] [")
+    return out.stdout.strip().splitlines()
+
+
+def test_building_the_core_binds_every_kernel():
+    before, after = _kernel_types(
+        "from fsw.core import FswCore\nfrom tools.scenario import load_scenario, resolve\n"
+        "import fsw.models.optical as o, fsw.models.radiometric as r, fsw.filters.radiometric_kinds as k\n"
+        "def types():\n"
+        "    names = [o.pinhole_image, r.uplink_light_time, r.uplink_reception, r.uplink_solution, k.doppler_prediction]\n"
+        "    print([type(f).__name__ for f in names])\n"
+        "types()\n"
+        "cfg, _ = resolve(load_scenario('insight-approach'), 1)\n"
+        "FswCore(cfg.fsw, lambda t, m: None)\n"
+        "types()\n")
     assert before.count("function") == 5  # stand-ins until the core is built
     assert after.count("CPUDispatcher") == 5  # numba's compiled kernels after
 
@@ -44,19 +51,17 @@ def test_the_fsw_process_binds_every_kernel_before_it_opens_its_session():
     """The peers of a run wait minutes for the FSW's session to open but seconds for its
     subscriptions after that: kernels compiled after the session opened (a machine's first run)
     made the simulator give up on the FSW."""
-    code = ("import fsw.app as app, fsw.models.optical as o, fsw.filters.radiometric_kinds as k\n"
-            "from tools.scenario import load_scenario, resolve\n"
-            "class Opened(Exception):\n    pass\n"
-            "def lifecycle(*args, **kwargs):\n"
-            "    print([type(f).__name__ for f in (o.pinhole_image, k.doppler_step, k.doppler_prediction)])\n"
-            "    raise Opened\n"
-            "app.tp.ProcessLifecycle = lifecycle\n"
-            "cfg, _ = resolve(load_scenario('insight-approach'), 1)\n"
-            "print([type(f).__name__ for f in (o.pinhole_image, k.doppler_step, k.doppler_prediction)])\n"
-            "try:\n    app.run_fsw(cfg.fsw, 'run')\nexcept Opened:\n    pass\n")
-    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stderr
-    before, at_open = out.stdout.strip().splitlines()
+    before, at_open = _kernel_types(
+        "import fsw.app as app, fsw.models.optical as o, fsw.filters.radiometric_kinds as k\n"
+        "from tools.scenario import load_scenario, resolve\n"
+        "def types():\n"
+        "    print([type(f).__name__ for f in (o.pinhole_image, k.doppler_step, k.doppler_prediction)])\n"
+        "class Opened(Exception):\n    pass\n"
+        "def lifecycle(*args, **kwargs):\n    types()\n    raise Opened\n"
+        "app.tp.ProcessLifecycle = lifecycle\n"
+        "cfg, _ = resolve(load_scenario('insight-approach'), 1)\n"
+        "types()\n"
+        "try:\n    app.run_fsw(cfg.fsw, 'run')\nexcept Opened:\n    pass\n")
     assert before.count("function") == 3  # stand-ins while the scenario is read
     assert at_open.count("CPUDispatcher") == 3  # compiled (or loaded) before the session opens
 
