@@ -40,7 +40,11 @@ def test_adaptation_runs_in_the_budget_and_reports_what_it_did():
         assert all(0.2 <= a <= 5.0 for a in r.alpha_after)  # inside the eq. 23 boxes
     assert any(r.applied for r in reports)
     budget = [msg for tp, msg in res.messages if tp == topics.FSW_BUDGET]
-    assert budget[-1].overruns == 0
+    first = next((b for b in budget if b.overruns), None)
+    # in mode cpu a stage is charged the thread CPU it took: say which frame, so a rare overrun
+    # on a noisy machine can be traced to its stage
+    assert first is None, (f"first overrun in frame {first.frame} (t {first.t_s:.1f} s): used {first.used:.4f} of "
+                           f"{first.budget} s over {first.processed} stages")
     # the report's message round-trips through the ICD codec (what the MCAP records)
     from fsw.interface import codec
     r = reports[0]
