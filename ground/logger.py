@@ -37,7 +37,7 @@ from fsw.interface import codec, topics
 from fsw.interface.messages import SCHEMA_VERSION, RunStatus
 from ground.foxglove.live import LiveView
 from ground.foxglove.tap import FoxgloveTap
-from ground.foxglove.view import FoxgloveView
+from ground.foxglove.view import FoxgloveView, wanted
 from ground.mcap_io import segments
 from ground.mcap_io.recorder import INVALID_PREFIX, REFUSED_PREFIX, McapRecorder, publish_time_of
 
@@ -112,6 +112,29 @@ class _Writer:
         self.unknown: dict[str, int] = {}
         self.invalid: dict[str, int] = {}
         self.ends: set[str] = set()  # producers whose end-of-run status was recorded
+        self._reading: dict[str, str] = {}  # per ICD topic: how its payloads are read (_reading)
+
+    def _read_as(self, topic: str) -> str:
+        """How the payloads of ICD topic ``topic`` are read, decided once per topic: ``typed``
+        (strictly, when validating, or when the feed keeps its ICD objects and would decode them
+        strictly itself), ``json`` (the JSON value, for the Foxglove view or a feed that does not
+        say what it keeps) or ``stamp`` (only the timestamp: nothing else reads the message).
+
+        Without validation, every payload used to be parsed into its JSON value and the feed's
+        topics decoded again: 5.3 s of CPU for a default run's 101,323 messages offline, of which
+        the JSON values cost 12 % and the feed's decoding 14 %."""
+        how = self._reading.get(topic)
+        if how is None:
+            feed_reads = getattr(self.feed, "reads", None)
+            view = None if self.tap is None else self.tap.view
+            if self.validate or (feed_reads is not None and feed_reads(topic)):
+                how = "typed"
+            elif (self.feed is not None and feed_reads is None) or (view is not None and wanted(topic)):
+                how = "json"
+            else:
+                how = "stamp"
+            self._reading[topic] = how
+        return how
 
     def _log_time(self, receive_ns: int, publish_ns: int | None) -> int:
         if not self.mission_time:
@@ -135,6 +158,7 @@ class _Writer:
         except KeyError:
             cls = None
         message: Any = got.message
+        publish_ns: int | None = None
         if cls is None:
             self.unknown[got.topic] = self.unknown.get(got.topic, 0) + 1
             try:
@@ -143,14 +167,28 @@ class _Writer:
                 self._invalid(got)
                 return
         elif message is None:
+            how = self._read_as(got.topic)
             try:
                 if got.schema and got.schema != codec.schema_name(cls):
                     raise ValueError(f"schema {got.schema}")
-                message = codec.from_json(cls, got.payload) if self.validate else _parse_json(got.payload)
+                if self.validate:
+                    message = codec.from_json(cls, got.payload)
+                elif how == "typed":
+                    try:
+                        message = codec.from_json(cls, got.payload)
+                    except codec.ICDError:  # recorded all the same, as its JSON value (the feed is then spoiled)
+                        message = _parse_json(got.payload)
+                elif how == "stamp":
+                    publish_ns = _stamp_only(got.payload)
+                    if publish_ns is None:
+                        message = _parse_json(got.payload)
+                else:
+                    message = _parse_json(got.payload)
             except ValueError:  # ICDError is a ValueError, and so is a JSON syntax error
                 self._invalid(got)
                 return
-        publish_ns = publish_time_of(message)
+        if publish_ns is None:
+            publish_ns = publish_time_of(message)
         log_ns = self._log_time(got.receive_ns, publish_ns)
         self.rec.write(got.topic, got.payload, log_ns, publish_ns, got.pub_seq or 0)
         if self.tap is not None:
@@ -159,6 +197,31 @@ class _Writer:
             self.feed(got.topic, cls, got.payload, message, log_ns)
         if isinstance(message, RunStatus) and message.state == "end-of-run":
             self.ends.add(message.source)
+
+
+class _Stamp(msgspec.Struct):
+    sec: int
+    nsec: int
+
+
+class _Stamped(msgspec.Struct):
+    timestamp: _Stamp
+
+
+_STAMPED = msgspec.json.Decoder(_Stamped)
+
+
+def _stamp_only(payload: bytes) -> int | None:
+    """:func:`~ground.mcap_io.recorder.publish_time_of` a payload's JSON value, read without
+    making the value: the timestamp's two integers, every other member skipped (but parsed: a
+    syntax error anywhere refuses the payload). None where that cannot tell — another shape, or a
+    payload that only ``json.loads`` takes — and the caller then makes the JSON value."""
+    try:
+        ts = _STAMPED.decode(payload).timestamp
+    except (msgspec.DecodeError, msgspec.ValidationError):
+        return None
+    sec, nsec = ts.sec, ts.nsec
+    return sec * 1_000_000_000 + nsec if sec >= 0 and 0 <= nsec < 1_000_000_000 else None
 
 
 def _parse_json(payload: bytes) -> Any:

@@ -31,12 +31,21 @@ class SummaryFeed:
         #: why the feed cannot stand for the recording (None: it can)
         self.spoiled: str | None = None
 
-    def __call__(self, topic: str, cls: type, payload: bytes, message: Any, log_ns: int) -> None:
+    def _channel(self, topic: str) -> str | None:
         try:
-            channel = self._reads[topic]
+            return self._reads[topic]
         except KeyError:
-            channel = topics.mcap_topic(topic)
-            channel = self._reads[topic] = channel if reads_topic(channel) else None
+            mtopic = topics.mcap_topic(topic)
+            channel = self._reads[topic] = mtopic if reads_topic(mtopic) else None
+            return channel
+
+    def reads(self, topic: str) -> bool:
+        """Whether the feed keeps the messages of ``topic`` (its ICD objects: a logger that decodes
+        them strictly anyway hands them over decoded, and the feed decodes nothing again)."""
+        return self._channel(topic) is not None
+
+    def __call__(self, topic: str, cls: type, payload: bytes, message: Any, log_ns: int) -> None:
+        channel = self._channel(topic)
         if channel is None or self.spoiled is not None:
             return
         if not isinstance(message, cls):  # the logger kept only the JSON value (it records without validating)
