@@ -21,6 +21,7 @@ from fsw.gating.base import WeightsUpdate
 from fsw.interface import messages as m
 from fsw.interface.examples import examples
 from fsw.interface.frozen import DECORATED, fast_init
+from fsw.transport.pubsub import Received
 
 def _noop(ctx: object) -> None:
     pass
@@ -46,6 +47,8 @@ def _records() -> list[Any]:
         StateEstimate("radio", 1.0, ("x", "y"), a[:2], np.eye(2)),
         FilterEstimate("radio", 1.0, ("x", "y"), a[:2], np.eye(2)),
         m.AuthTag("ab" * 16, "cd" * 32),  # examples() has no signed message
+        Received("sim/measurements", b"{}", 7, "navbank.Measurement/v1", None, 3),
+        Received("fsw/status", b"{}", 7, "", object(), None, "bad tag"),
     ]
 
 
@@ -82,7 +85,7 @@ def test_every_icd_message_and_every_per_measurement_record_is_decorated():
     icd = {cls for cls in vars(m).values()
            if isinstance(cls, type) and dataclasses.is_dataclass(cls) and cls.__module__ == m.__name__}
     assert icd <= set(DECORATED)
-    records = {BankRecord, Job, BudgetReportData, WeightsUpdate, AnomalyState, StateEstimate, FilterEstimate}
+    records = {BankRecord, Job, BudgetReportData, WeightsUpdate, AnomalyState, StateEstimate, FilterEstimate, Received}
     assert records <= set(DECORATED)
     assert {type(obj) for obj in _instances()} == set(DECORATED)  # the cases below cover every one
 

@@ -28,6 +28,7 @@ import zenoh
 
 from fsw.interface import codec, topics
 from fsw.interface.auth import AUTHENTICATED_TYPES, MessageAuthenticator
+from fsw.interface.frozen import fast_init
 from fsw.interface.messages import RunStatus
 from fsw.transport import wire
 from fsw.transport.flow import COMPLETE, PROGRESS, ROLES, CreditWindow
@@ -219,6 +220,7 @@ class SeenSequences:
         return 0 <= byte < len(self._bits) and bool(self._bits[byte] >> bit & 1)
 
 
+@fast_init  # one per sample taken (the logger takes ~100k a default run): 1.25 -> 0.45 us each
 @dataclass(frozen=True, slots=True)
 class Received:
     """One sample taken from a :class:`Subscriber`."""
