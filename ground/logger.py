@@ -112,7 +112,7 @@ class _Writer:
         self.unknown: dict[str, int] = {}
         self.invalid: dict[str, int] = {}
         self.ends: set[str] = set()  # producers whose end-of-run status was recorded
-        self._reading: dict[str, str] = {}  # per ICD topic: how its payloads are read (_reading)
+        self._reading: dict[str, str] = {}  # per ICD topic: how its payloads are read (_read_as)
 
     def _read_as(self, topic: str) -> str:
         """How the payloads of ICD topic ``topic`` are read, decided once per topic: ``typed``
@@ -315,8 +315,10 @@ def run_logger(
     (host, port) to serve every channel over Foxglove's WebSocket protocol while recording;
     ``feed(topic, cls, payload, message, log_ns)``: called after each ICD message is recorded, in
     recording order (``message`` is the decoded ICD object, or only its JSON value without
-    ``validate``), e.g. a :class:`ground.report.summary_feed.SummaryFeed`; ``on_closed(result)``:
-    called once the file is finished, while the session still lets its last replies leave.
+    ``validate``; a feed with ``reads(topic)`` gets the topics it reads decoded, and None for the
+    others where nothing else reads them), e.g. a :class:`ground.report.summary_feed.SummaryFeed`;
+    ``on_closed(result)``: called once the file is finished, while the session still lets its last
+    replies leave.
     """
     topics.check_run_id(run_id)
     out_path = os.fspath(out_path)
