@@ -29,6 +29,23 @@ def test_stamp_is_the_utc_of_the_tdb_epoch_to_microseconds(t):
     assert stamp(t).to_unix() == pytest.approx(float(tdb_to_unix(t)), abs=2e-6)
 
 
+def test_the_hourly_offsets_converted_together_are_those_converted_one_by_one():
+    # ±2.3 years of hours about the default scenario's epoch (the 2016-12-31 leap second included);
+    # misses in every order: forwards, backwards, and a cache cleared half-way
+    from fsw.core import telemetry
+
+    hours = list(range(int(5.2e8 // 3600), int(6.6e8 // 3600), 7))
+    one_by_one = [float(tdb_to_unix(h * 3600.0)) - h * 3600.0 for h in hours]
+    for order in (hours, hours[::-1]):
+        telemetry._OFFSETS.clear()
+        got = {h: telemetry._unix_offset(h) for h in order}
+        assert [got[h] for h in hours] == one_by_one
+    assert len(telemetry._OFFSETS) <= telemetry._OFFSETS_KEPT
+    stamps = [stamp(h * 3600.0 + 1234.5) for h in hours[:200]]
+    telemetry._OFFSETS.clear()
+    assert [stamp(h * 3600.0 + 1234.5) for h in hours[:200]] == stamps
+
+
 @pytest.mark.parametrize("mode", ["cpu", "work-units"])
 def test_budget_message_is_the_report_field_by_field(mode):
     # every field a different value, so that two fields swapped could not go unnoticed
