@@ -176,11 +176,25 @@ def test_uninvited_peer_cannot_command_or_forge(tmp_path, short_scenario):
     scen.write_text(short_scenario(span_days=30.0, faults=("{type: optical-bias, onset_day: 1.5, sample_px: 20.0, line_px: 30.0}",)))
     other_dir = make_credentials(tmp_path / "other-run")
 
-    # the undisturbed run
-    base = subprocess.run(_navbank("run", "--scenario", str(scen), "--out", str(tmp_path / "base"), "--quiet"),
-                          capture_output=True, text=True, timeout=600)
-    assert base.returncode == 0, base.stdout + base.stderr
+    # the undisturbed run, flown meanwhile: the attacked run below is paced and mostly waits
+    base_log = tmp_path / "base.log"
+    with open(base_log, "w", encoding="utf-8") as log:
+        base = subprocess.Popen(_navbank("run", "--scenario", str(scen), "--out", str(tmp_path / "base"), "--quiet"),
+                                stdout=log, stderr=subprocess.STDOUT, text=True)
+    try:
+        _drill(tmp_path, scen, other_dir)
+    except BaseException:
+        base.kill()
+        base.wait()
+        raise
+    assert base.wait(timeout=600) == 0, base_log.read_text()
+    summary = json.loads((tmp_path / "attacked" / "summary.json").read_text())
+    base_summary = json.loads((tmp_path / "base" / "summary.json").read_text())
+    assert _summary_core(summary) == _summary_core(base_summary)
 
+
+def _drill(tmp_path: Path, scen: Path, other_dir: Path) -> None:
+    """The attacked run: the attacks mid-run, then what it recorded of them."""
     run_id = f"drill-{os.getpid()}"
     out = tmp_path / "attacked"
     # paced to ~60 s of wall time so that the run is still flying when the attacks (a few seconds)
@@ -212,11 +226,8 @@ def test_uninvited_peer_cannot_command_or_forge(tmp_path, short_scenario):
     assert proc.returncode == 0, stdout
     assert not creds.exists() and not creds.parent.exists()  # removed when the run ended
 
-    # the run's results are those of the undisturbed run
     summary = json.loads((out / "summary.json").read_text())
-    base_summary = json.loads((tmp_path / "base" / "summary.json").read_text())
-    assert summary["status"] == "complete"
-    assert _summary_core(summary) == _summary_core(base_summary)
+    assert summary["status"] == "complete"  # (its results are compared with the undisturbed run's by the caller)
 
     # what reached the application is counted, and on the record
     n_commands = N_UNSIGNED + N_BAD_KEY + N_REPLAY
