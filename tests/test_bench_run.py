@@ -168,17 +168,38 @@ def test_campaign_bench_plans_and_cpu_gain(tmp_path):
     assert cpu_gain({"run_cpu_s": None}, {"run_cpu_s": 1.0}) is None
 
 
-def test_a_repeated_campaign_measurement_keeps_the_fastest_and_lists_every_rate():
-    from tools.bench.campaigns import best_of
+def test_a_gain_sets_the_two_worker_rates_against_one_worker_rates_measured_around_them():
+    from tools.bench.campaigns import bracketed, cpu_gain
 
-    measured = [{"runs_per_min": 24.4, "wall_s": 14.7, "run_cpu_s": 4.7},
-                {"runs_per_min": 26.1, "wall_s": 13.8, "run_cpu_s": 4.5},
-                {"runs_per_min": 25.0, "wall_s": 14.4, "run_cpu_s": 4.6}]
-    best = best_of(measured)
-    # the whole measurement of the fastest repeat, not the best of each figure
-    assert (best["runs_per_min"], best["wall_s"], best["run_cpu_s"]) == (26.1, 13.8, 4.5)
-    assert best["runs_per_min_repeats"] == [24.4, 26.1, 25.0]
-    assert "runs_per_min_repeats" not in measured[1]  # the measurements are left as they were
+    # the machine speeds up steadily, by 10 % of its first speed per measurement, and a second worker
+    # doubles the rate: one worker at 10 then (three measurements later) 13; two at 22 and 24
+    order: list[str] = []
+    ones = iter([{"runs_per_min": 10.0, "run_cpu_s": 6.0}, {"runs_per_min": 13.0, "run_cpu_s": 4.0}])
+    twos = iter([{"runs_per_min": 22.0, "run_cpu_s": 5.5}, {"runs_per_min": 24.0, "run_cpu_s": 4.5}])
+
+    def one():
+        order.append("one")
+        return next(ones)
+
+    def two():
+        order.append("two")
+        return next(twos)
+
+    a, b = bracketed(one, two, repeats=2)
+    assert order == ["one", "two", "two", "one"]
+    # the drift cancels: 23 / 11.5 - 1 = 1, the true gain, where the first 1-worker rate alone
+    # would give 1.3 and the last 0.77
+    assert (a["runs_per_min"], b["runs_per_min"]) == (11.5, 23.0)
+    assert a["runs_per_min_repeats"] == [10.0, 13.0] and b["runs_per_min_repeats"] == [22.0, 24.0]
+    assert b["best"] == {"runs_per_min": 24.0, "run_cpu_s": 4.5} and a["best"]["runs_per_min"] == 13.0
+    assert (a["run_cpu_s"], b["run_cpu_s"]) == (5.0, 5.0) and cpu_gain(a, b) == pytest.approx(1.0)
+    # one repeat (--quick): 1, 2, 1; a measurement without its CPU leaves the side's CPU unknown
+    order.clear()
+    ones = iter([{"runs_per_min": 8.0, "run_cpu_s": None}, {"runs_per_min": 12.0, "run_cpu_s": 1.0}])
+    twos = iter([{"runs_per_min": 19.0, "run_cpu_s": 1.0}])
+    a, b = bracketed(one, two, repeats=1)
+    assert order == ["one", "two", "one"] and b["runs_per_min"] / a["runs_per_min"] == pytest.approx(1.9)
+    assert a["run_cpu_s"] is None
 
 
 def test_an_in_process_run_says_where_its_cpu_went():

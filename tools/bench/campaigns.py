@@ -4,25 +4,31 @@ One small nominal campaign of the default scenario (``insight-approach``, fault 
 3 runs per worker; 4 on ``--quick``'s short arcs) is run by :func:`tools.campaign.runner.run_campaign` — the code
 ``navbank campaign`` runs — on:
 
-* the local spawn pool with 1 worker (``r1``) and with 2 workers;
+* the local spawn pool with 1 worker and with 2 workers;
 * a dask ``LocalCluster`` with 2 workers;
 * a real dask cluster: ``dask scheduler`` and two ``dask worker`` processes on loopback
   (:class:`tools.campaign.dask_cluster.LoopbackCluster`), reached by address like any existing one.
 
-Rows: ``campaign-gain-<executor>``: ours = runs/min with 2 workers, reference = r1, ratio = what
-the added worker adds relative to one worker (goal ≥ 0.85); ``campaign-45day-runs-per-min``: the
-2-worker local pool's rate in full 45-day runs per minute (runs of a shorter arc are converted
+Rows: ``campaign-gain-<executor>``: ours = mean runs/min with 2 workers, reference = mean runs/min
+of the local pool with 1 worker measured before and after them, ratio = what the added worker
+adds relative to one worker (goal ≥ 0.85); ``campaign-45day-runs-per-min``: the 2-worker local
+pool's rate in full 45-day runs per minute (runs of a shorter arc are converted
 by their length) against the goal figure of 60; ``campaign-worker-overhead``: the CPU of a run
 as a campaign task (median, 1 worker) against the CPU of the same arc's run in process (what
 being a task adds per run: decoding the task, building the row, pickling; goal ≥ 0.9).
 
-Each configuration is measured ``repeats`` times (2; 1 on ``--quick``), the 1- and 2-worker local
-pools alternately, and its row keeps the best rate (``runs_per_min_repeats`` lists them all), as
-the other rows keep the best of their repeats. One measurement (~14 s) on a 2-core machine that
-also runs the scheduler, the client and whatever else is there scatters: three bench runs one
-after the other gave the dask scheduler's gain 0.92, 0.84 and 0.74 (the local pool's 0.95, 0.93,
-0.90), while a campaign on that cluster measured alone showed its scheduler using 1.8 % of a core
-and its workers 4.55-4.60 s of CPU per 45-day run, the local pool's runs 4.49-4.55 s.
+Each 2-worker configuration is measured ``repeats`` times (2; 1 on ``--quick``) between two
+measurements of the 1-worker local pool (:func:`bracketed`: 1, 2, 2, 1 workers), and its gain is
+the ratio of the mean 2-worker rate to the mean 1-worker rate. A gain divides two rates, and this
+machine's speed drifts by tens of per cent over minutes: with the 1-worker rate measured once at
+the start, three bench runs gave the dask scheduler's gain 0.70, 0.85 and 1.05 and the local
+pool's 1.41, 1.02 and 1.02 (above 1: the machine sped up between the two measurements). In the
+bracket both sides' measurements are centred on the same moment, so a drift linear in time
+cancels; faster swings still show, in every repeat's rate listed on the row
+(``runs_per_min_repeats`` of each side) and in ``cpu_gain``. A campaign on the dask cluster
+measured alone showed its scheduler using 1.8 % of a core and its workers 4.55-4.60 s of CPU
+per 45-day run, the local pool's runs 4.49-4.55 s. The 45-day rate row keeps the fastest
+2-worker repeat, as the other rows keep the best of their repeats.
 
 Each rate is the steady state of warm workers: the executor first runs one short priming run
 per worker (which starts and warms it, :mod:`tools.campaign.warm`; its time is the detail
@@ -101,11 +107,25 @@ def cpu_gain(one: dict[str, Any], two: dict[str, Any]) -> float | None:
     return 2.0 * c1 / c2 - 1.0 if c1 and c2 else None
 
 
-def best_of(measured: list[dict[str, Any]]) -> dict[str, Any]:
-    """The measurement of highest rate among repeats of one configuration, with every repeat's
-    rate (``runs_per_min_repeats``, in the order measured)."""
-    best = max(measured, key=lambda x: x["runs_per_min"])
-    return {**best, "runs_per_min_repeats": [x["runs_per_min"] for x in measured]}
+def bracketed(one: Callable[[], dict[str, Any]], two: Callable[[], dict[str, Any]], repeats: int
+              ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``repeats`` 2-worker measurements ``two()`` between two 1-worker ones ``one()`` (1, 2, ..., 2,
+    1): both sides' measurements centred on the same moment, so that a drift of the machine's speed
+    linear in time changes both means alike. Returns each side's summary: ``runs_per_min`` the
+    mean rate, ``runs_per_min_repeats`` every rate in the order measured, ``run_cpu_s`` the mean
+    of the measurements' run CPU (None if one lacks it), ``best`` the fastest measurement whole."""
+    first = one()
+    twos = [two() for _ in range(max(1, repeats))]
+    ones = [first, one()]
+    return _side(ones), _side(twos)
+
+
+def _side(measured: list[dict[str, Any]]) -> dict[str, Any]:
+    cpu = [m.get("run_cpu_s") for m in measured]
+    return {"runs_per_min": statistics.fmean(m["runs_per_min"] for m in measured),
+            "runs_per_min_repeats": [m["runs_per_min"] for m in measured],
+            "run_cpu_s": statistics.fmean(cpu) if all(cpu) else None,  # type: ignore[arg-type]
+            "best": max(measured, key=lambda m: m["runs_per_min"])}
 
 
 def campaign_rows(span_days: float, inprocess_cpu_s: float | None = None, runs_per_worker: int = 3,
@@ -126,33 +146,33 @@ def campaign_rows(span_days: float, inprocess_cpu_s: float | None = None, runs_p
             return (plan_for(span_days, workers * runs_per_worker, d, base),
                     plan_for(PRIME_SPAN_DAYS, workers, d, base + 50))
 
-        def repeated(factory: Callable[[], Executor], workers: int, label: str) -> dict[str, Any]:
-            return best_of([measure(factory, *plan(workers), d / f"{label}-{next(dirs)}") for _ in range(repeats)])
+        def local_one() -> dict[str, Any]:
+            return measure(lambda: LocalExecutor(1), *plan(1), d / f"local-1-{next(dirs)}")
 
-        ones, twos = [], []
-        for _ in range(repeats):  # alternately, so that a slow spell of the machine hits both alike
-            ones.append(measure(lambda: LocalExecutor(1), *plan(1), d / f"local-1-{next(dirs)}"))
-            twos.append(measure(lambda: LocalExecutor(2), *plan(2), d / f"local-2-{next(dirs)}"))
-        one, two = best_of(ones), best_of(twos)
-        r1 = one["runs_per_min"]
-        rows.append(make_row("campaign-gain-local", two["runs_per_min"], r1, "runs/min", GAIN_GOAL,
-                             "(2-worker rate / 1-worker rate) - 1: what the added worker adds (local spawn pool)",
-                             one_worker=one, two_workers=two, cpu_gain=cpu_gain(one, two), **common))
-        rate45 = two["runs_per_min"] * span_days / FULL_SPAN_DAYS
+        def against_one(factory: Callable[[], Executor], label: str) -> tuple[dict[str, Any], dict[str, Any]]:
+            return bracketed(local_one, lambda: measure(factory, *plan(2), d / f"{label}-{next(dirs)}"), repeats)
+
+        one, two = against_one(lambda: LocalExecutor(2), "local-2")
+        rows.append(make_row("campaign-gain-local", two["runs_per_min"], one["runs_per_min"], "runs/min", GAIN_GOAL,
+                             "(mean 2-worker rate / mean 1-worker rate around it) - 1: what the added worker adds "
+                             "(local spawn pool)", one_worker=one, two_workers=two, cpu_gain=cpu_gain(one, two),
+                             **common))
+        rate45 = two["best"]["runs_per_min"] * span_days / FULL_SPAN_DAYS
         rows.append(make_row("campaign-45day-runs-per-min", rate45, RUNS_PER_MIN_GOAL, "runs/min", RATE_GOAL,
                              "45-day runs per minute on 2 local workers / goal figure 60",
                              converted_from_span_days=span_days if span_days != FULL_SPAN_DAYS else None, **common))
-        if inprocess_cpu_s and one.get("run_cpu_s"):
-            rows.append(make_row("campaign-worker-overhead", one["run_cpu_s"], inprocess_cpu_s, "s CPU/run",
+        if inprocess_cpu_s and one["best"].get("run_cpu_s"):
+            rows.append(make_row("campaign-worker-overhead", one["best"]["run_cpu_s"], inprocess_cpu_s, "s CPU/run",
                                  OVERHEAD_GOAL, "CPU of the run in process / CPU of the same run as a campaign task "
                                  "(what being a task adds per run: decoding, row, pickling)", **common))
         if not dask:
             return rows
         try:
-            lc = repeated(lambda: DaskExecutor(2), 2, "dask-lc")
-            rows.append(make_row("campaign-gain-dask-localcluster", lc["runs_per_min"], r1, "runs/min", GAIN_GOAL,
-                                 "(2-worker LocalCluster rate / 1 local worker's rate) - 1", two_workers=lc,
-                                 cpu_gain=cpu_gain(one, lc), **common))
+            lc_one, lc = against_one(lambda: DaskExecutor(2), "dask-lc")
+            rows.append(make_row("campaign-gain-dask-localcluster", lc["runs_per_min"], lc_one["runs_per_min"],
+                                 "runs/min", GAIN_GOAL,
+                                 "(mean 2-worker LocalCluster rate / mean 1 local worker's rate around it) - 1",
+                                 one_worker=lc_one, two_workers=lc, cpu_gain=cpu_gain(lc_one, lc), **common))
         except RuntimeError as exc:
             rows.append(skipped_row("campaign-gain-dask-localcluster", "runs/min", GAIN_GOAL, str(exc).splitlines()[0]))
         try:
@@ -161,13 +181,15 @@ def campaign_rows(span_days: float, inprocess_cpu_s: float | None = None, runs_p
             t0 = time.perf_counter()
             with LoopbackCluster(2) as cluster:
                 cluster_start_s = time.perf_counter() - t0
-                sc = repeated(lambda: DaskExecutor(2, cluster.address), 2, "dask-sched")
-            rows.append(make_row("campaign-gain-dask-scheduler", sc["runs_per_min"], r1, "runs/min", GAIN_GOAL,
-                                 "(rate on dask scheduler + 2 dask worker processes / 1 local worker's rate) - 1",
-                                 two_workers=sc, cluster_start_s=cluster_start_s, cpu_gain=cpu_gain(one, sc), **common))
+                sc_one, sc = against_one(lambda: DaskExecutor(2, cluster.address), "dask-sched")
+            rows.append(make_row("campaign-gain-dask-scheduler", sc["runs_per_min"], sc_one["runs_per_min"],
+                                 "runs/min", GAIN_GOAL,
+                                 "(mean rate on dask scheduler + 2 dask worker processes / mean 1 local worker's "
+                                 "rate around it) - 1", one_worker=sc_one, two_workers=sc,
+                                 cluster_start_s=cluster_start_s, cpu_gain=cpu_gain(sc_one, sc), **common))
         except (RuntimeError, TimeoutError, OSError) as exc:
             rows.append(skipped_row("campaign-gain-dask-scheduler", "runs/min", GAIN_GOAL, str(exc).splitlines()[0]))
     return rows
 
 
-__all__ = ["best_of", "campaign_rows", "campaign_text", "plan_for", "measure"]
+__all__ = ["bracketed", "campaign_rows", "campaign_text", "plan_for", "measure"]
